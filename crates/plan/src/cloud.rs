@@ -1,0 +1,151 @@
+//! The point cloud as the pipeline holds it, and the scanner viewpoints that came with it.
+//!
+//! Coordinates are stored as `f32` relative to a local `origin` (12 bytes a point), so that
+//! georeferenced clouds with large offsets keep millimetre precision without doubling memory.
+
+use serde::{Deserialize, Serialize};
+
+/// A point cloud in a local frame: world = `origin` + local.
+#[derive(Debug, Clone, Default)]
+pub struct PointCloud {
+    /// World coordinates of the local frame's origin.
+    pub origin: [f64; 3],
+    /// Local x, y, z of every point, in metres.
+    pub xyz: Vec<[f32; 3]>,
+    /// Per point: index into `Viewpoints::Static`. Empty when the cloud names no scans.
+    pub scan: Vec<u16>,
+    /// Per point: acquisition time, for mobile scans. Empty when unknown.
+    pub time: Vec<f64>,
+    /// Where the scanner stood, when known.
+    pub viewpoints: Viewpoints,
+    /// The input's coordinate reference system (WKT or `EPSG:nnnn`), when declared.
+    pub crs: Option<String>,
+    /// What was read, for reports.
+    pub source: SourceInfo,
+}
+
+/// A summary of the file a cloud came from.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct SourceInfo {
+    /// Short format name: `ply`, `e57`, `las`, `laz`, `xyz`, `pts`, `memory`.
+    pub format: String,
+    /// Human-readable format details (version, encoding, point layout).
+    pub details: String,
+    /// Points skipped while reading (invalid or non-finite), with the reason.
+    pub skipped: u64,
+    /// Why points were skipped, when any were.
+    pub skipped_reason: Option<String>,
+    /// The units assumed for the coordinates.
+    pub units: String,
+}
+
+/// Scanner positions: none, one pose per static scan, or a mobile trajectory.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub enum Viewpoints {
+    /// Nothing is known about where the scanner was.
+    #[default]
+    None,
+    /// One pose per static scan; `PointCloud::scan` indexes this list.
+    Static(Vec<ScanPose>),
+    /// A time-ordered path; `PointCloud::time` locates each point on it.
+    Trajectory(Vec<TrajectorySample>),
+}
+
+/// A static scan's pose, in local coordinates (same frame as `PointCloud::xyz`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ScanPose {
+    /// The scan's index as the user names it (sidecar `index`, LAS `point_source_id`, E57 scan number).
+    pub index: u32,
+    /// Scanner origin, local frame.
+    pub position: [f64; 3],
+    /// Rotation scanner → cloud frame, as `[w, x, y, z]`.
+    pub quaternion: [f64; 4],
+}
+
+/// One sample of a mobile scanner's path, in local coordinates.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TrajectorySample {
+    pub t: f64,
+    pub position: [f64; 3],
+    pub quaternion: [f64; 4],
+}
+
+impl PointCloud {
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.xyz.len()
+    }
+
+    /// True when the cloud holds no points.
+    pub fn is_empty(&self) -> bool {
+        self.xyz.is_empty()
+    }
+
+    /// Builds a cloud from world coordinates, choosing the origin at the first point's floor
+    /// so that `f32` local coordinates stay small.
+    pub fn from_world(points: &[[f64; 3]]) -> Self {
+        let origin = local_origin(points.first().copied());
+        let xyz = points.iter().map(|p| to_local(origin, *p)).collect();
+        PointCloud {
+            origin,
+            xyz,
+            ..Default::default()
+        }
+    }
+
+    /// Axis-aligned bounds of the local coordinates, `None` when empty.
+    pub fn local_bounds(&self) -> Option<([f32; 3], [f32; 3])> {
+        let first = *self.xyz.first()?;
+        Some(self.xyz.iter().fold((first, first), |(mut lo, mut hi), p| {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+            (lo, hi)
+        }))
+    }
+
+    /// Checks the cross-field invariants readers must uphold.
+    pub fn check(&self) -> Result<(), String> {
+        if !self.scan.is_empty() && self.scan.len() != self.xyz.len() {
+            return Err(format!(
+                "{} scan indices for {} points",
+                self.scan.len(),
+                self.xyz.len()
+            ));
+        }
+        if !self.time.is_empty() && self.time.len() != self.xyz.len() {
+            return Err(format!(
+                "{} times for {} points",
+                self.time.len(),
+                self.xyz.len()
+            ));
+        }
+        if let Viewpoints::Static(poses) = &self.viewpoints {
+            if let Some(bad) = self.scan.iter().find(|&&s| s as usize >= poses.len()) {
+                return Err(format!("scan slot {bad} but only {} poses", poses.len()));
+            }
+        }
+        if self.xyz.iter().any(|p| !p.iter().all(|c| c.is_finite())) {
+            return Err("non-finite coordinate".into());
+        }
+        Ok(())
+    }
+}
+
+/// Picks a local origin near `first`, rounded to whole kilometres so nearby clouds share it.
+pub fn local_origin(first: Option<[f64; 3]>) -> [f64; 3] {
+    match first {
+        Some(p) if p.iter().any(|c| c.abs() > 1.0e4) => p.map(|c| (c / 1000.0).round() * 1000.0),
+        _ => [0.0; 3],
+    }
+}
+
+/// World → local `f32` coordinates.
+pub fn to_local(origin: [f64; 3], p: [f64; 3]) -> [f32; 3] {
+    [
+        (p[0] - origin[0]) as f32,
+        (p[1] - origin[1]) as f32,
+        (p[2] - origin[2]) as f32,
+    ]
+}

@@ -1,0 +1,2 @@
+//! Scores a floor plan against ground truth: area IoU, boundary distance, completeness,
+//! watertightness and arc radius error.

@@ -1,0 +1,1 @@
+//! Writes a FloorPlan as svg.

@@ -1,0 +1,36 @@
+//! # asbuilt-plan
+//!
+//! Turns a point cloud of a building interior into a watertight floor plan per story, after
+//! Turner & Zakhor, "Watertight As-Built Architectural Floor Plans Generated from Laser Range
+//! Data". The crate is pure and synchronous: no HTTP, no async runtime, no database. Only
+//! [`io`] touches files.
+//!
+//! # Layout
+//! - [`pipeline::plan`] runs the stages in order:
+//!   [`stories`] → [`samples`] → [`smoothing`] → [`labeling`] → [`cleanup`] → [`boundary`] → [`fitting`].
+//! - [`params::Params`] holds every stage's parameters, with the paper's defaults.
+//! - [`cloud::PointCloud`] is the input, [`plan::FloorPlan`] the output.
+//! - [`io`] reads clouds and pose sidecars and writes GeoJSON, SVG and DXF.
+//! - [`simulate`] builds and scans synthetic buildings with exact ground truth; [`evaluate`] scores plans.
+
+pub mod boundary;
+pub mod cleanup;
+pub mod cloud;
+pub mod evaluate;
+pub mod fitting;
+pub mod geom;
+pub mod io;
+pub mod labeling;
+pub mod params;
+pub mod pipeline;
+pub mod plan;
+pub mod progress;
+pub mod samples;
+pub mod simulate;
+pub mod smoothing;
+pub mod stories;
+
+pub use cloud::PointCloud;
+pub use params::Params;
+pub use pipeline::{plan, PlanError};
+pub use plan::FloorPlan;

@@ -1,0 +1,111 @@
+//! Every stage's parameters in one place, with overrides from files and `key=value` pairs.
+
+use serde::{Deserialize, Serialize};
+
+use crate::cleanup::CleanupParams;
+use crate::fitting::FittingParams;
+use crate::labeling::LabelingParams;
+use crate::samples::SamplesParams;
+use crate::smoothing::SmoothingParams;
+use crate::stories::StoriesParams;
+
+/// The parameters of a whole run; each field is one stage's parameter struct.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    pub stories: StoriesParams,
+    pub samples: SamplesParams,
+    pub smoothing: SmoothingParams,
+    pub labeling: LabelingParams,
+    pub cleanup: CleanupParams,
+    pub fitting: FittingParams,
+    /// Include each story's wall samples as a `wall_samples` feature.
+    pub emit_samples: bool,
+}
+
+/// A parameter that could not be set. The message names the parameter.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ParamsError {
+    #[error("parameter override `{0}` is not of the form section.name=value")]
+    Syntax(String),
+    #[error("unknown parameter `{0}`")]
+    Unknown(String),
+    #[error("invalid value for parameter `{name}`: {why}")]
+    Invalid { name: String, why: String },
+    #[error("parameter file: {0}")]
+    File(String),
+}
+
+impl Params {
+    /// Parses a TOML or JSON parameter file's text (JSON when it starts with `{`).
+    pub fn from_file_text(text: &str) -> Result<Params, ParamsError> {
+        if text.trim_start().starts_with('{') {
+            serde_json::from_str(text).map_err(|e| ParamsError::File(e.to_string()))
+        } else {
+            toml::from_str(text).map_err(|e| ParamsError::File(e.to_string()))
+        }
+    }
+
+    /// Applies one `section.name=value` override. The value is read as JSON when it parses as
+    /// JSON (numbers, booleans, `null`), else as a string.
+    pub fn set(&mut self, assignment: &str) -> Result<(), ParamsError> {
+        let (key, raw) = assignment
+            .split_once('=')
+            .ok_or_else(|| ParamsError::Syntax(assignment.into()))?;
+        let key = key.trim();
+        let value: serde_json::Value = serde_json::from_str(raw.trim())
+            .unwrap_or_else(|_| serde_json::Value::String(raw.trim().into()));
+        let mut tree = serde_json::to_value(&*self).expect("params serialize");
+        let mut slot = &mut tree;
+        for part in key.split('.') {
+            slot = slot
+                .as_object_mut()
+                .and_then(|o| o.get_mut(part))
+                .ok_or_else(|| ParamsError::Unknown(key.into()))?;
+        }
+        *slot = value;
+        *self = serde_json::from_value(tree).map_err(|e| ParamsError::Invalid {
+            name: key.into(),
+            why: e.to_string(),
+        })?;
+        Ok(())
+    }
+
+    /// The parameters as JSON, for `floorplan.parameters`.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::to_value(self).expect("params serialize")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn overrides_name_the_parameter() {
+        let mut p = Params::default();
+        p.set("samples.cell_size=0.1").unwrap();
+        assert_eq!(p.samples.cell_size, 0.1);
+        p.set("samples.min_points=20").unwrap();
+        assert_eq!(p.samples.min_points, Some(20));
+        p.set("labeling.solver=harmonic").unwrap();
+        assert_eq!(p.labeling.solver, crate::labeling::Solver::Harmonic);
+        assert_eq!(
+            p.set("samples.nope=1"),
+            Err(ParamsError::Unknown("samples.nope".into()))
+        );
+        assert!(
+            matches!(p.set("samples.cell_size=abc"), Err(ParamsError::Invalid { name, .. }) if name == "samples.cell_size")
+        );
+        assert!(matches!(p.set("oops"), Err(ParamsError::Syntax(_))));
+    }
+
+    #[test]
+    fn files_in_toml_and_json() {
+        let t = Params::from_file_text("[stories]\nmin_wall_height = 2.5\n").unwrap();
+        assert_eq!(t.stories.min_wall_height, 2.5);
+        let j = Params::from_file_text(r#"{"fitting": {"circles": false}}"#).unwrap();
+        assert!(!j.fitting.circles);
+        assert!(Params::from_file_text("[stories]\nbogus = 1\n").is_err());
+    }
+}

@@ -1,0 +1,5 @@
+//! The command-line front ends of the pipeline. Each subcommand is a file with `Args` and `run`.
+
+pub mod info;
+pub mod plan;
+pub mod simulate;
