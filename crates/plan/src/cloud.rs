@@ -12,8 +12,12 @@ pub struct PointCloud {
     pub origin: [f64; 3],
     /// Local x, y, z of every point, in metres.
     pub xyz: Vec<[f32; 3]>,
-    /// Per point: index into `Viewpoints::Static`. Empty when the cloud names no scans.
+    /// Per point: a scan slot, indexing `scan_ids` (and `Viewpoints::Static` when poses are known).
+    /// Empty when the cloud names no scans.
     pub scan: Vec<u16>,
+    /// Per scan slot: the scan's index as the user names it (PLY `scan_index`, LAS
+    /// `point_source_id`, E57 scan number, sidecar `index`).
+    pub scan_ids: Vec<u32>,
     /// Per point: acquisition time, for mobile scans. Empty when unknown.
     pub time: Vec<f64>,
     /// Where the scanner stood, when known.
@@ -45,7 +49,7 @@ pub enum Viewpoints {
     /// Nothing is known about where the scanner was.
     #[default]
     None,
-    /// One pose per static scan; `PointCloud::scan` indexes this list.
+    /// One pose per scan slot, aligned with `PointCloud::scan_ids`.
     Static(Vec<ScanPose>),
     /// A time-ordered path; `PointCloud::time` locates each point on it.
     Trajectory(Vec<TrajectorySample>),
@@ -121,9 +125,23 @@ impl PointCloud {
                 self.xyz.len()
             ));
         }
+        if let Some(bad) = self
+            .scan
+            .iter()
+            .find(|&&s| s as usize >= self.scan_ids.len())
+        {
+            return Err(format!(
+                "scan slot {bad} but only {} scans",
+                self.scan_ids.len()
+            ));
+        }
         if let Viewpoints::Static(poses) = &self.viewpoints {
-            if let Some(bad) = self.scan.iter().find(|&&s| s as usize >= poses.len()) {
-                return Err(format!("scan slot {bad} but only {} poses", poses.len()));
+            if poses.len() != self.scan_ids.len() {
+                return Err(format!(
+                    "{} poses for {} scans",
+                    poses.len(),
+                    self.scan_ids.len()
+                ));
             }
         }
         if self.xyz.iter().any(|p| !p.iter().all(|c| c.is_finite())) {
