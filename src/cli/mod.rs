@@ -2,4 +2,5 @@
 
 pub mod info;
 pub mod plan;
+mod progress;
 pub mod simulate;

@@ -1,10 +1,332 @@
-//! `asbuilt plan`.
+//! `asbuilt plan`: read a cloud, attach its scanner poses, run the pipeline, write the plan.
 
+use std::io::Write;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use asbuilt_plan::cloud::{PointCloud, Viewpoints};
+use asbuilt_plan::io::{self, dxf, geojson, poses, svg};
+use asbuilt_plan::progress::Stage;
+use asbuilt_plan::{FloorPlan, Params};
+
+use super::progress::Bar;
 
 #[derive(clap::Args)]
-pub struct PlanArgs {}
+pub struct PlanArgs {
+    /// The point cloud: PLY, E57, LAS/LAZ, XYZ or PTS (chosen from the file's content).
+    pub input: PathBuf,
+    /// Write the GeoJSON plan here instead of standard output.
+    #[arg(short, long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+    /// Also write an SVG preview.
+    #[arg(long, value_name = "FILE")]
+    pub svg: Option<PathBuf>,
+    /// Also write a DXF R12 drawing.
+    #[arg(long, value_name = "FILE")]
+    pub dxf: Option<PathBuf>,
+    /// Static scanner poses, `{"scans": [{"index", "position", "quaternion"}]}`.
+    #[arg(long, value_name = "FILE", conflicts_with = "trajectory")]
+    pub poses: Option<PathBuf>,
+    /// A mobile scanner's path, `{"samples": [{"t", "position", "quaternion"}]}`.
+    #[arg(long, value_name = "FILE")]
+    pub trajectory: Option<PathBuf>,
+    /// Parameters from a TOML or JSON file; `--param` overrides them.
+    #[arg(long, value_name = "FILE")]
+    pub params: Option<PathBuf>,
+    /// Override one parameter, e.g. `--param samples.cell_size=0.05`. Repeatable.
+    #[arg(long = "param", value_name = "KEY=VALUE")]
+    pub overrides: Vec<String>,
+    /// Expected registration error between scans, metres (turns on sample smoothing).
+    #[arg(long, value_name = "M")]
+    pub registration_error: Option<f64>,
+    /// Multiply input coordinates by S to get metres (e.g. 0.001 for millimetres).
+    #[arg(long, value_name = "S")]
+    pub scale: Option<f64>,
+    /// Include each story's wall samples in the outputs.
+    #[arg(long)]
+    pub emit_samples: bool,
+    /// No progress bar, timings or notes on standard error.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
 
-pub fn run(_args: PlanArgs) -> anyhow::Result<ExitCode> {
-    anyhow::bail!("`asbuilt plan` is not built yet")
+pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
+    let start = Instant::now();
+    // Everything that can be checked cheaply is checked before the long run.
+    let params = params(&args)?;
+    if let Some(s) = args.scale {
+        check_scale(s)?;
+    }
+    for out in [&args.output, &args.svg, &args.dxf].into_iter().flatten() {
+        check_writable(out)?;
+    }
+    let bar = Bar::new(args.quiet);
+    bar.stage(Stage::Read);
+    let read_start = Instant::now();
+    let mut cloud = load(
+        &args.input,
+        args.poses.as_deref(),
+        args.trajectory.as_deref(),
+    )?;
+    if let Some(s) = args.scale {
+        apply_scale(&mut cloud, s)?;
+    }
+    let read_ms = read_start.elapsed().as_millis() as u64;
+
+    let mut bar = bar;
+    let result = asbuilt_plan::plan(&cloud, &params, &mut bar);
+    bar.finish();
+    let mut plan = result.with_context(|| format!("{}", args.input.display()))?;
+    drop(cloud);
+    add_read_time(&mut plan, read_ms);
+    if let Some(s) = args.scale {
+        plan.notes
+            .push(format!("input coordinates were multiplied by {s}"));
+    }
+
+    let write_start = Instant::now();
+    write_outputs(&args, &plan)?;
+    let write_ms = write_start.elapsed().as_millis() as u64;
+
+    if !args.quiet {
+        report(&plan, write_ms, start.elapsed().as_millis() as u64);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Defaults, then the file, then `--param`s in order, then the dedicated flags.
+fn params(args: &PlanArgs) -> anyhow::Result<Params> {
+    let mut params = match &args.params {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            Params::from_file_text(&text)
+                .map_err(|e| anyhow::anyhow!(one_line(&e.to_string())))
+                .with_context(|| format!("{}", path.display()))?
+        }
+        None => Params::default(),
+    };
+    for assignment in &args.overrides {
+        params
+            .set(assignment)
+            .with_context(|| format!("--param {assignment}"))?;
+    }
+    if let Some(e) = args.registration_error {
+        if !(e.is_finite() && e >= 0.0) {
+            bail!("--registration-error must be a non-negative number of metres, not {e}");
+        }
+        params.smoothing.registration_error = Some(e);
+    }
+    if args.emit_samples {
+        params.emit_samples = true;
+    }
+    Ok(params)
+}
+
+/// Parser errors (TOML's) quote the offending source over several lines; a CLI error is one
+/// line, so the quoted snippet goes and the remaining lines are joined.
+fn one_line(message: &str) -> String {
+    let snippet = |l: &str| {
+        let t = l.trim_start_matches(|c: char| c.is_ascii_digit() || c == ' ');
+        t.starts_with('|')
+    };
+    message
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !snippet(l))
+        .collect::<Vec<_>>()
+        .join(": ")
+}
+
+/// Fails early when an output's folder does not exist, rather than after the run.
+fn check_writable(path: &Path) -> anyhow::Result<()> {
+    match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() && !dir.is_dir() => {
+            bail!(
+                "{}: folder {} does not exist",
+                path.display(),
+                dir.display()
+            )
+        }
+        _ => Ok(()),
+    }
+}
+
+/// Reads the cloud and attaches a pose or trajectory sidecar, naming the file on failure.
+pub(super) fn load(
+    input: &Path,
+    poses_file: Option<&Path>,
+    trajectory_file: Option<&Path>,
+) -> anyhow::Result<PointCloud> {
+    let mut cloud = io::read_cloud(input)?;
+    if let Some(path) = poses_file {
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        let scans = poses::parse_poses(&text).with_context(|| format!("{}", path.display()))?;
+        poses::attach_poses(&mut cloud, scans).with_context(|| format!("{}", path.display()))?;
+    }
+    if let Some(path) = trajectory_file {
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        let samples =
+            poses::parse_trajectory(&text).with_context(|| format!("{}", path.display()))?;
+        poses::attach_trajectory(&mut cloud, samples)
+            .with_context(|| format!("{}", path.display()))?;
+    }
+    Ok(cloud)
+}
+
+fn check_scale(s: f64) -> anyhow::Result<()> {
+    if !(s.is_finite() && s > 0.0) {
+        bail!("--scale must be a positive number, not {s}");
+    }
+    Ok(())
+}
+
+/// Scales the whole cloud (origin, points, scanner positions) about the world origin, so
+/// that a file in other units becomes metres. Sidecars are attached first, in file units.
+fn apply_scale(cloud: &mut PointCloud, s: f64) -> anyhow::Result<()> {
+    check_scale(s)?;
+    cloud.origin = cloud.origin.map(|c| c * s);
+    let sf = s as f32;
+    for p in &mut cloud.xyz {
+        *p = p.map(|c| c * sf);
+    }
+    match &mut cloud.viewpoints {
+        Viewpoints::None => {}
+        Viewpoints::Static(poses) => {
+            for p in poses {
+                p.position = p.position.map(|c| c * s);
+            }
+        }
+        Viewpoints::Trajectory(samples) => {
+            for p in samples {
+                p.position = p.position.map(|c| c * s);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Puts the read time first in `timings_ms` and counts it in the total, as the contract shows.
+fn add_read_time(plan: &mut FloorPlan, read_ms: u64) {
+    plan.timings_ms.insert(0, ("read".into(), read_ms));
+    if let Some((_, total)) = plan.timings_ms.iter_mut().find(|(n, _)| n == "total") {
+        *total += read_ms;
+    }
+}
+
+fn write_outputs(args: &PlanArgs, plan: &FloorPlan) -> anyhow::Result<()> {
+    let text = geojson::to_geojson_string(plan);
+    match &args.output {
+        Some(path) => {
+            std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?
+        }
+        None => {
+            let mut out = std::io::stdout().lock();
+            out.write_all(text.as_bytes())
+                .and_then(|()| out.flush())
+                .context("writing the plan to standard output")?;
+        }
+    }
+    if let Some(path) = &args.svg {
+        std::fs::write(path, svg::to_svg(plan))
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = &args.dxf {
+        let bytes = dxf::to_dxf(plan)?;
+        std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}
+
+/// Stories, per-stage timings and notes, on standard error so stdout stays pure GeoJSON.
+fn report(plan: &FloorPlan, write_ms: u64, total_ms: u64) {
+    let mut err = std::io::stderr().lock();
+    let _ = writeln!(
+        err,
+        "{} points ({}), {} stor{}:",
+        plan.input.points,
+        plan.input.format,
+        plan.stories.len(),
+        if plan.stories.len() == 1 { "y" } else { "ies" }
+    );
+    for s in &plan.stories {
+        let _ = writeln!(
+            err,
+            "  level {}: floor z {:.2} m, ceiling z {:.2} m, {:.1} m², {} walls, {} samples",
+            s.level,
+            s.floor_z + plan.origin[2],
+            s.ceiling_z + plan.origin[2],
+            s.area(),
+            s.walls.len(),
+            s.samples.len()
+        );
+    }
+    let _ = writeln!(err, "timings (ms):");
+    for (name, ms) in plan.timings_ms.iter().filter(|(n, _)| n != "total") {
+        let _ = writeln!(err, "  {name:<10} {ms:>8}");
+    }
+    let _ = writeln!(err, "  {:<10} {write_ms:>8}", "write");
+    let _ = writeln!(err, "  {:<10} {total_ms:>8}", "total");
+    for note in &plan.notes {
+        let _ = writeln!(err, "note: {note}");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use asbuilt_plan::cloud::ScanPose;
+
+    #[test]
+    fn scale_multiplies_origin_points_and_poses() {
+        let mut cloud = PointCloud::from_world(&[[20_000.0, 0.0, 0.0], [20_001.0, 2.0, 3.0]]);
+        cloud.viewpoints = Viewpoints::Static(vec![ScanPose {
+            index: 0,
+            position: [10.0, 20.0, 30.0],
+            quaternion: [1.0, 0.0, 0.0, 0.0],
+        }]);
+        apply_scale(&mut cloud, 0.001).unwrap();
+        let world: Vec<[f64; 3]> = cloud
+            .xyz
+            .iter()
+            .map(|p| [0, 1, 2].map(|k| cloud.origin[k] + p[k] as f64))
+            .collect();
+        assert!((world[1][0] - 20.001).abs() < 1e-9);
+        assert!((world[1][2] - 0.003).abs() < 1e-9);
+        let Viewpoints::Static(p) = &cloud.viewpoints else {
+            panic!("poses lost")
+        };
+        assert!((p[0].position[1] - 0.02).abs() < 1e-12);
+        assert!(apply_scale(&mut cloud, 0.0).is_err());
+        assert!(apply_scale(&mut cloud, f64::NAN).is_err());
+    }
+
+    #[test]
+    fn multi_line_parser_errors_become_one_line() {
+        let text = "TOML parse error at line 2, column 1\n  |\n2 | bogus = 1\n  | ^^^^^\nunknown field `bogus`\n";
+        assert_eq!(
+            one_line(text),
+            "TOML parse error at line 2, column 1: unknown field `bogus`"
+        );
+    }
+
+    #[test]
+    fn read_time_leads_and_counts_in_the_total() {
+        let mut plan = FloorPlan {
+            origin: [0.0; 3],
+            crs: None,
+            input: Default::default(),
+            parameters: serde_json::json!({}),
+            timings_ms: vec![("stories".into(), 4), ("total".into(), 10)],
+            stories: vec![],
+            notes: vec![],
+        };
+        add_read_time(&mut plan, 7);
+        assert_eq!(plan.timings_ms[0], ("read".to_string(), 7));
+        assert_eq!(plan.timings_ms[2], ("total".to_string(), 17));
+    }
 }

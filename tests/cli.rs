@@ -1,0 +1,197 @@
+//! The `asbuilt` binary as users run it: exit codes, one-line errors, help.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn asbuilt(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_asbuilt"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// A failure must be one line, `asbuilt: <reason>`, and a non-zero exit.
+fn assert_one_line_failure(out: &Output) -> String {
+    assert!(!out.status.success(), "expected failure");
+    let err = stderr(out);
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 1, "not one line: {err}");
+    assert!(lines[0].starts_with("asbuilt: "), "{err}");
+    lines[0].to_string()
+}
+
+/// Writes an ASCII PLY with the given points (and a `scan_index` per point) and returns its path.
+fn write_ascii_ply(dir: &Path, name: &str, points: &[([f32; 3], u32)]) -> PathBuf {
+    let mut text = format!(
+        "ply\nformat ascii 1.0\ncomment written by the asbuilt CLI tests\nelement vertex {}\n\
+         property float x\nproperty float y\nproperty float z\nproperty uint scan_index\nend_header\n",
+        points.len()
+    );
+    for ([x, y, z], scan) in points {
+        text.push_str(&format!("{x} {y} {z} {scan}\n"));
+    }
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// Four points spanning 2 × 3 × 2.5 m, from two scans.
+fn small_cloud(dir: &Path) -> PathBuf {
+    write_ascii_ply(
+        dir,
+        "small.ply",
+        &[
+            ([0.0, 0.0, 0.0], 0),
+            ([2.0, 0.0, 0.0], 0),
+            ([2.0, 3.0, 2.5], 1),
+            ([0.0, 3.0, 2.5], 1),
+        ],
+    )
+}
+
+#[test]
+fn help_lists_the_commands_and_plan_options() {
+    let out = asbuilt(&["--help"]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    for cmd in ["plan", "info", "simulate"] {
+        assert!(text.contains(cmd), "--help lacks {cmd}: {text}");
+    }
+    let out = asbuilt(&["plan", "--help"]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    for opt in [
+        "--output",
+        "--svg",
+        "--dxf",
+        "--poses",
+        "--trajectory",
+        "--params",
+        "--param",
+        "--registration-error",
+        "--scale",
+        "--emit-samples",
+        "--quiet",
+    ] {
+        assert!(text.contains(opt), "plan --help lacks {opt}: {text}");
+    }
+}
+
+#[test]
+fn missing_input_fails_in_one_line_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("no-such-scan.ply");
+    let output = dir.path().join("plan.geojson");
+    let out = asbuilt(&[
+        "plan",
+        input.to_str().unwrap(),
+        "-o",
+        output.to_str().unwrap(),
+        "--quiet",
+    ]);
+    let line = assert_one_line_failure(&out);
+    assert!(line.contains("no-such-scan.ply"), "{line}");
+    assert!(!output.exists(), "a failed run must not leave an output");
+    assert!(out.stdout.is_empty());
+
+    let out = asbuilt(&["info", input.to_str().unwrap()]);
+    let line = assert_one_line_failure(&out);
+    assert!(line.contains("no-such-scan.ply"), "{line}");
+}
+
+#[test]
+fn unknown_parameter_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = small_cloud(dir.path());
+    let out = asbuilt(&["plan", input.to_str().unwrap(), "--param", "bogus.x=1"]);
+    let line = assert_one_line_failure(&out);
+    assert!(line.contains("bogus.x"), "{line}");
+
+    let out = asbuilt(&[
+        "plan",
+        input.to_str().unwrap(),
+        "--param",
+        "samples.cell_size=wide",
+    ]);
+    let line = assert_one_line_failure(&out);
+    assert!(line.contains("samples.cell_size"), "{line}");
+}
+
+#[test]
+fn bad_parameter_file_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = small_cloud(dir.path());
+    let params = dir.path().join("run.toml");
+    std::fs::write(&params, "[stories]\nbogus = 1\n").unwrap();
+    let out = asbuilt(&[
+        "plan",
+        input.to_str().unwrap(),
+        "--params",
+        params.to_str().unwrap(),
+    ]);
+    let line = assert_one_line_failure(&out);
+    assert!(line.contains("run.toml"), "{line}");
+    assert!(line.contains("bogus"), "{line}");
+}
+
+#[test]
+fn bad_flags_fail_before_reading() {
+    let dir = tempfile::tempdir().unwrap();
+    // The input does not exist: each error below must come first, naming its flag.
+    let input = dir.path().join("later.ply");
+    let input = input.to_str().unwrap();
+    let line = assert_one_line_failure(&asbuilt(&["plan", input, "--scale", "0"]));
+    assert!(line.contains("--scale"), "{line}");
+    let line = assert_one_line_failure(&asbuilt(&["plan", input, "--registration-error=-1"]));
+    assert!(line.contains("--registration-error"), "{line}");
+    let missing = dir.path().join("absent").join("plan.svg");
+    let line = assert_one_line_failure(&asbuilt(&[
+        "plan",
+        input,
+        "--svg",
+        missing.to_str().unwrap(),
+    ]));
+    assert!(line.contains("absent"), "{line}");
+    assert!(!line.contains("later.ply"), "{line}");
+}
+
+#[test]
+fn poses_and_trajectory_are_exclusive() {
+    let out = asbuilt(&[
+        "plan",
+        "x.ply",
+        "--poses",
+        "p.json",
+        "--trajectory",
+        "t.json",
+    ]);
+    // A usage error: clap's exit code 2, and a message naming both flags.
+    assert_eq!(out.status.code(), Some(2));
+    let err = stderr(&out);
+    assert!(
+        err.contains("--poses") && err.contains("--trajectory"),
+        "{err}"
+    );
+}
+
+#[test]
+fn info_reports_the_cloud_or_names_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = small_cloud(dir.path());
+    let out = asbuilt(&["info", input.to_str().unwrap()]);
+    if out.status.success() {
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(text.contains("points: 4\n"), "{text}");
+        assert!(text.contains("format: ply"), "{text}");
+        assert!(text.contains("scans: 2"), "{text}");
+        assert!(text.contains("size: 2.000 x 3.000 x 2.500 m"), "{text}");
+    } else {
+        // Without a PLY reader in this build, the failure must still name the file.
+        let line = assert_one_line_failure(&out);
+        assert!(line.contains("small.ply"), "{line}");
+    }
+}
