@@ -375,7 +375,7 @@ pub(crate) mod tests {
         let doc = reparse(&p);
         let s = kinds(&doc, "story")[0];
         let first = coords(&s["geometry"]["coordinates"][0])[0];
-        assert_eq!(first, [500_000.1235, 5_400_000.0]);
+        assert_eq!(first, [500_000.123_5, 5_400_000.0]);
         assert_eq!(s["properties"]["floor_z"], 103.0);
         assert_eq!(s["properties"]["ceiling_z"], 105.5);
 

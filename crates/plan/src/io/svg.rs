@@ -79,6 +79,9 @@ impl Bounds {
 struct Panel {
     left: f64,
     top: f64,
+    /// Drawing area in pixels, for the panel's frame.
+    width: f64,
+    height: f64,
     bounds: Bounds,
     scale: f64,
 }
@@ -124,6 +127,8 @@ pub fn to_svg_with(plan: &FloorPlan, options: &SvgOptions) -> String {
         panels.push(Panel {
             left,
             top: MARGIN + TITLE,
+            width,
+            height: h * scale,
             bounds: b,
             scale,
         });
@@ -173,6 +178,14 @@ fn draw_story(
         story.level,
         story.floor_z + plan.origin[2],
         story.area()
+    );
+    let _ = writeln!(
+        svg,
+        r##"<rect class="panel" x="{:.1}" y="{:.1}" width="{:.1}" height="{:.1}" fill="none" stroke="#e3e3e3"/>"##,
+        panel.left - 6.0,
+        panel.top - 6.0,
+        panel.width + 12.0,
+        panel.height + 12.0
     );
     // Floor: every ring in one path, so the even-odd rule leaves holes open.
     let mut d = String::new();
