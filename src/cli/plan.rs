@@ -314,6 +314,73 @@ mod tests {
         );
     }
 
+    fn square_plan() -> FloorPlan {
+        use asbuilt_plan::plan::{Polygon, StoryPlan, Wall, WallModel};
+        FloorPlan {
+            origin: [100.0, 200.0, 10.0],
+            crs: None,
+            input: Default::default(),
+            parameters: Params::default().to_json(),
+            timings_ms: vec![("total".into(), 1)],
+            stories: vec![StoryPlan {
+                level: 0,
+                floor_z: 0.0,
+                ceiling_z: 2.5,
+                polygons: vec![Polygon {
+                    exterior: vec![[0.0, 0.0], [3.0, 0.0], [3.0, 2.0], [0.0, 2.0]],
+                    holes: vec![],
+                }],
+                walls: vec![Wall {
+                    model: WallModel::Line,
+                    points: vec![[0.0, 0.0], [3.0, 0.0]],
+                    support: 5,
+                }],
+                samples: vec![],
+            }],
+            notes: vec![],
+        }
+    }
+
+    #[test]
+    fn writes_every_requested_output() {
+        let dir = tempfile::tempdir().unwrap();
+        let args = PlanArgs {
+            input: "in.ply".into(),
+            output: Some(dir.path().join("plan.geojson")),
+            svg: Some(dir.path().join("plan.svg")),
+            dxf: Some(dir.path().join("plan.dxf")),
+            poses: None,
+            trajectory: None,
+            params: None,
+            overrides: vec![],
+            registration_error: None,
+            scale: None,
+            emit_samples: false,
+            quiet: true,
+        };
+        write_outputs(&args, &square_plan()).unwrap();
+        let text = std::fs::read_to_string(dir.path().join("plan.geojson")).unwrap();
+        let doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(
+            doc["features"][0]["geometry"]["coordinates"][0][0][0],
+            100.0
+        );
+        assert_eq!(doc["features"][0]["properties"]["area_m2"], 6.0);
+        let svg = std::fs::read_to_string(dir.path().join("plan.svg")).unwrap();
+        assert!(svg.contains("Level 0, floor z = 10.00 m, area 6.0 m²"));
+        let dxf = std::fs::read_to_string(dir.path().join("plan.dxf")).unwrap();
+        assert!(dxf.contains("AC1009") && dxf.contains("STORY_0") && dxf.ends_with("EOF\n"));
+    }
+
+    #[test]
+    fn outputs_need_an_existing_folder() {
+        let dir = tempfile::tempdir().unwrap();
+        assert!(check_writable(&dir.path().join("plan.svg")).is_ok());
+        assert!(check_writable(Path::new("plan.svg")).is_ok());
+        let err = check_writable(&dir.path().join("nope").join("plan.svg")).unwrap_err();
+        assert!(err.to_string().contains("nope"), "{err}");
+    }
+
     #[test]
     fn read_time_leads_and_counts_in_the_total() {
         let mut plan = FloorPlan {
