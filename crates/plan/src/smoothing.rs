@@ -1,8 +1,17 @@
 //! Stage 3 (§3.2): average wall samples across small registration errors.
+//!
+//! Each sample moves to the mean position of its smoothing set: the samples within the
+//! smoothing distance along ±n, within `across_cells` × d_s across n, and with a normal within
+//! `max_angle` of n. All means are taken over the original positions, so the result does not
+//! depend on the order of the samples.
 
+use std::collections::HashMap;
+
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::samples::WallSamples;
+use crate::geom::{cross, dot, sub, P2};
+use crate::samples::{WallSample, WallSamples};
 
 /// Parameters of [`smooth_samples`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -44,6 +53,231 @@ pub fn smooth_samples(
     cell_size: f64,
     params: &SmoothingParams,
 ) -> Result<(), SmoothingError> {
-    let _ = (samples, cell_size, params);
+    let Some(error) = params.registration_error else {
+        return Ok(());
+    };
+    let along = params.distance.unwrap_or(2.0 * error);
+    let across = params.across_cells * cell_size;
+    check(error, along, across, params.max_angle)?;
+    let set = SmoothingSet {
+        along,
+        across,
+        min_cos: params.max_angle.cos(),
+    };
+    let index = Buckets::new(&samples.samples, along.hypot(across));
+    let means: Vec<P2> = samples
+        .samples
+        .par_iter()
+        .map(|s| set.mean(s, &samples.samples, &index))
+        .collect();
+    for (s, m) in samples.samples.iter_mut().zip(means) {
+        s.pos = m;
+    }
     Ok(())
+}
+
+fn check(error: f64, along: f64, across: f64, max_angle: f64) -> Result<(), SmoothingError> {
+    let positive = |name, v: f64| {
+        if v.is_finite() && v > 0.0 {
+            Ok(())
+        } else {
+            Err(SmoothingError::BadParam {
+                name,
+                why: format!("{v} is not a positive number"),
+            })
+        }
+    };
+    positive("registration_error", error)?;
+    positive("distance", along)?;
+    positive("across_cells × cell_size", across)?;
+    if !(0.0..=std::f64::consts::PI).contains(&max_angle) {
+        return Err(SmoothingError::BadParam {
+            name: "max_angle",
+            why: format!("{max_angle} is not within 0..=π"),
+        });
+    }
+    Ok(())
+}
+
+/// The smoothing-set tests of §3.2.
+struct SmoothingSet {
+    along: f64,
+    across: f64,
+    min_cos: f64,
+}
+
+impl SmoothingSet {
+    /// Whether `t` belongs to the smoothing set of `s`. Normals compare as oriented when both
+    /// samples were seen by a scanner, else as lines (an unoriented normal's sign means nothing).
+    fn contains(&self, s: &WallSample, t: &WallSample) -> bool {
+        let d = sub(t.pos, s.pos);
+        let cos = dot(s.normal, t.normal);
+        let oriented = !s.seen_from.is_empty() && !t.seen_from.is_empty();
+        dot(d, s.normal).abs() <= self.along
+            && cross(s.normal, d).abs() <= self.across
+            && (if oriented { cos } else { cos.abs() }) >= self.min_cos
+    }
+
+    /// The mean position of the smoothing set of `s`, which always holds `s` itself.
+    fn mean(&self, s: &WallSample, all: &[WallSample], index: &Buckets) -> P2 {
+        let (mut sum, mut n) = ([0.0, 0.0], 0usize);
+        for k in index.near(s.pos) {
+            let t = &all[k as usize];
+            if self.contains(s, t) {
+                sum = [sum[0] + t.pos[0], sum[1] + t.pos[1]];
+                n += 1;
+            }
+        }
+        if n == 0 {
+            return s.pos;
+        }
+        [sum[0] / n as f64, sum[1] / n as f64]
+    }
+}
+
+/// Samples bucketed on a square grid of the search radius: a disc of that radius around any
+/// point lies in the 3 × 3 buckets around it.
+struct Buckets {
+    size: f64,
+    cells: HashMap<(i64, i64), Vec<u32>>,
+}
+
+impl Buckets {
+    fn new(samples: &[WallSample], size: f64) -> Buckets {
+        let mut cells: HashMap<(i64, i64), Vec<u32>> = HashMap::new();
+        for (k, s) in samples.iter().enumerate() {
+            cells.entry(key(s.pos, size)).or_default().push(k as u32);
+        }
+        Buckets { size, cells }
+    }
+
+    fn near(&self, p: P2) -> impl Iterator<Item = u32> + '_ {
+        let (i, j) = key(p, self.size);
+        (-1..=1)
+            .flat_map(move |di| {
+                (-1..=1).map(move |dj| (i.saturating_add(di), j.saturating_add(dj)))
+            })
+            .filter_map(|c| self.cells.get(&c))
+            .flatten()
+            .copied()
+    }
+}
+
+fn key(p: P2, size: f64) -> (i64, i64) {
+    ((p[0] / size).floor() as i64, (p[1] / size).floor() as i64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(pos: P2, normal: P2, seen: bool) -> WallSample {
+        WallSample {
+            pos,
+            normal,
+            confidence: 1.0,
+            seen_from: if seen { vec![0] } else { Vec::new() },
+        }
+    }
+
+    /// Samples every 4 cm along x from 0 to 2 m at height `y` (off the 15 cm set boundary).
+    fn wall(y: f64, normal: P2, seen: bool) -> Vec<WallSample> {
+        (0..=50)
+            .map(|k| sample([0.04 * k as f64, y], normal, seen))
+            .collect()
+    }
+
+    fn on(error: f64) -> SmoothingParams {
+        SmoothingParams {
+            registration_error: Some(error),
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn two_offset_copies_of_a_wall_converge() {
+        let mut s = WallSamples {
+            samples: [wall(0.0, [0.0, 1.0], false), wall(0.02, [0.0, 1.0], false)].concat(),
+            ..Default::default()
+        };
+        smooth_samples(&mut s, 0.05, &on(0.02)).unwrap();
+        for t in &s.samples {
+            assert!((t.pos[1] - 0.01).abs() < 1e-12, "{t:?}");
+        }
+        // Along the wall, interior samples stay where they were (symmetric sets).
+        assert!((s.samples[25].pos[0] - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn off_by_default() {
+        let before = WallSamples {
+            samples: [wall(0.0, [0.0, 1.0], false), wall(0.02, [0.0, 1.0], false)].concat(),
+            ..Default::default()
+        };
+        let mut after = before.clone();
+        smooth_samples(&mut after, 0.05, &SmoothingParams::default()).unwrap();
+        assert_eq!(before, after);
+    }
+
+    #[test]
+    fn walls_at_an_angle_or_facing_away_stay_apart() {
+        // A perpendicular wall meeting the first at x = 1, and the far face of a 6 cm wall.
+        let across: Vec<WallSample> = (1..=10)
+            .map(|k| sample([1.0, 0.05 * k as f64], [1.0, 0.0], true))
+            .collect();
+        let mut s = WallSamples {
+            samples: [
+                wall(0.0, [0.0, 1.0], true),
+                across,
+                wall(-0.06, [0.0, -1.0], true),
+            ]
+            .concat(),
+            ..Default::default()
+        };
+        let before = s.clone();
+        smooth_samples(&mut s, 0.05, &on(0.05)).unwrap();
+        for (a, b) in s.samples.iter().zip(&before.samples) {
+            // Only moves along a wall, never across it.
+            let moved = sub(a.pos, b.pos);
+            assert!(dot(moved, a.normal).abs() < 1e-12, "{b:?} → {a:?}");
+        }
+        // Unoriented, the two faces merge into one line.
+        let mut faces = WallSamples {
+            samples: [
+                wall(0.0, [0.0, 1.0], false),
+                wall(-0.06, [0.0, -1.0], false),
+            ]
+            .concat(),
+            ..Default::default()
+        };
+        smooth_samples(&mut faces, 0.05, &on(0.05)).unwrap();
+        assert!(faces
+            .samples
+            .iter()
+            .all(|t| (t.pos[1] + 0.03).abs() < 1e-12));
+    }
+
+    #[test]
+    fn bad_parameters_are_named() {
+        let mut s = WallSamples::default();
+        let err = smooth_samples(&mut s, 0.05, &on(-1.0)).unwrap_err();
+        assert!(matches!(
+            err,
+            SmoothingError::BadParam {
+                name: "registration_error",
+                ..
+            }
+        ));
+        let p = SmoothingParams {
+            max_angle: 4.0,
+            ..on(0.01)
+        };
+        assert!(matches!(
+            smooth_samples(&mut s, 0.05, &p),
+            Err(SmoothingError::BadParam {
+                name: "max_angle",
+                ..
+            })
+        ));
+    }
 }

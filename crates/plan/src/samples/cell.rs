@@ -1,0 +1,360 @@
+//! The wall tests of one grid cell's neighbourhood (§3.1), in the paper's order, and its PCA
+//! normal.
+
+use super::SamplesParams;
+use crate::geom::P2;
+use crate::stories::Story;
+
+/// Why a cell is not a wall, in the order the tests run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Reject {
+    /// Fewer neighbourhood points than the threshold.
+    TooFew,
+    /// Vertical support below the minimum wall height.
+    TooShort,
+    /// Too few non-empty height bins.
+    Gappy,
+    /// Too few non-empty bins among the top four: the points do not reach the ceiling.
+    NoTop,
+    /// The median position lies outside the cell.
+    MedianOutside,
+    /// PCA confidence below the minimum: a corner, a blob, or a single column of points.
+    Unaligned,
+}
+
+impl Reject {
+    pub const ALL: [Reject; 6] = [
+        Reject::TooFew,
+        Reject::TooShort,
+        Reject::Gappy,
+        Reject::NoTop,
+        Reject::MedianOutside,
+        Reject::Unaligned,
+    ];
+
+    pub fn describe(self) -> &'static str {
+        match self {
+            Reject::TooFew => "too few points",
+            Reject::TooShort => "too short",
+            Reject::Gappy => "height bins too sparse",
+            Reject::NoTop => "not reaching the ceiling",
+            Reject::MedianOutside => "median outside the cell",
+            Reject::Unaligned => "not aligned",
+        }
+    }
+
+    /// A cell rejected only after its height profile passed: it looks like a wall, and its
+    /// point count says how dense walls are.
+    pub fn wall_like(self) -> bool {
+        matches!(self, Reject::MedianOutside | Reject::Unaligned)
+    }
+}
+
+/// A cell that passed: its sample position, unit normal (unoriented) and confidence.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Wall {
+    pub pos: P2,
+    pub normal: P2,
+    pub confidence: f64,
+}
+
+/// The tests of §3.1 for one story.
+#[derive(Debug, Clone)]
+pub(super) struct Tests {
+    floor: f64,
+    ceiling: f64,
+    min_wall_height: f64,
+    bins: usize,
+    min_filled: usize,
+    min_top: usize,
+    min_confidence: f64,
+    density_aware: bool,
+}
+
+impl Tests {
+    pub fn new(story: &Story, params: &SamplesParams) -> Tests {
+        Tests {
+            floor: story.floor_z,
+            ceiling: story.ceiling_z,
+            min_wall_height: params.min_wall_height,
+            bins: params.height_bins,
+            min_filled: params.min_filled_bins,
+            min_top: params.min_top_bins,
+            min_confidence: params.min_confidence,
+            density_aware: params.density_aware_histogram,
+        }
+    }
+
+    pub fn min_wall_height(&self) -> f64 {
+        self.min_wall_height
+    }
+
+    /// The height bin of `z` over `[floor, ceiling]`, `None` outside. Points above a lower
+    /// ceiling (rooms with a higher one) are left out rather than piled into the top bin.
+    pub fn bin_of(&self, z: f32) -> Option<u32> {
+        let t = (z as f64 - self.floor) / (self.ceiling - self.floor);
+        (0.0..=1.0)
+            .contains(&t)
+            .then(|| ((t * self.bins as f64) as usize).min(self.bins - 1) as u32)
+    }
+
+    /// Bins required non-empty overall and among the top four, for `n` points in the histogram.
+    ///
+    /// Beyond the paper (`density_aware_histogram`): n points spread evenly over B bins leave
+    /// each bin empty with probability (1 - 1/B)^n, so a sparse wall fills fewer bins than a
+    /// dense one. The requirements are scaled by the expected filled fraction; from about 45
+    /// points on they equal the paper's 12 and 3.
+    pub fn required(&self, n: usize) -> (u32, u32) {
+        let fill = if self.density_aware {
+            1.0 - (1.0 - 1.0 / self.bins as f64).powi(n.min(1 << 20) as i32)
+        } else {
+            1.0
+        };
+        let need = |k: usize| ((k as f64 * fill - 1e-9).ceil().max(1.0)) as u32;
+        (need(self.min_filled), need(self.min_top))
+    }
+
+    /// A bit mask with the bins of the top four set.
+    pub fn top_mask(&self) -> u32 {
+        let top = self.bins.min(4);
+        (((1u64 << top) - 1) << (self.bins - top)) as u32
+    }
+
+    /// Whether a height-bin mask of `n` points passes the filled-bins tests.
+    pub fn histogram(&self, mask: u32, n: usize) -> Result<(), Reject> {
+        let (filled, top) = self.required(n);
+        if mask.count_ones() < filled {
+            Err(Reject::Gappy)
+        } else if (mask & self.top_mask()).count_ones() < top {
+            Err(Reject::NoTop)
+        } else {
+            Ok(())
+        }
+    }
+
+    /// Runs every test on the neighbourhood `pts` of the cell whose lower-left corner is `lo`
+    /// and width `cell`. Reorders `pts` (median selection).
+    pub fn run(
+        &self,
+        pts: &mut [[f32; 3]],
+        lo: P2,
+        cell: f64,
+        min_points: usize,
+    ) -> Result<Wall, Reject> {
+        if pts.len() < min_points.max(2) {
+            return Err(Reject::TooFew);
+        }
+        let (zmin, zmax) = pts.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |a, p| {
+            (a.0.min(p[2]), a.1.max(p[2]))
+        });
+        if ((zmax - zmin) as f64) < self.min_wall_height {
+            return Err(Reject::TooShort);
+        }
+        let (mask, n) = pts
+            .iter()
+            .filter_map(|p| self.bin_of(p[2]))
+            .fold((0u32, 0usize), |(m, n), b| (m | 1 << b, n + 1));
+        self.histogram(mask, n)?;
+        let pos = median_xy(pts);
+        let inside = |k: usize| pos[k] >= lo[k] && pos[k] < lo[k] + cell;
+        if !(inside(0) && inside(1)) {
+            return Err(Reject::MedianOutside);
+        }
+        let (normal, confidence) = pca_normal(pts).ok_or(Reject::Unaligned)?;
+        if confidence < self.min_confidence {
+            return Err(Reject::Unaligned);
+        }
+        Ok(Wall {
+            pos,
+            normal,
+            confidence,
+        })
+    }
+}
+
+/// The component-wise median of x and y (the upper median for an even count).
+fn median_xy(pts: &mut [[f32; 3]]) -> P2 {
+    let mid = pts.len() / 2;
+    let mut m = [0.0; 2];
+    for (k, slot) in m.iter_mut().enumerate() {
+        pts.select_nth_unstable_by(mid, |a, b| a[k].total_cmp(&b[k]));
+        *slot = pts[mid][k] as f64;
+    }
+    m
+}
+
+/// The PCA normal of the x, y positions: the eigenvector of the smaller eigenvalue λ1 of the
+/// 2 × 2 covariance, with confidence c = 1 - 2λ1/(λ1+λ2) = (λ2-λ1)/(λ1+λ2). The normal is
+/// canonical (x > 0, or x = 0 and y > 0) until a scanner orients it. `None` when every point
+/// has the same x, y.
+pub(super) fn pca_normal(pts: &[[f32; 3]]) -> Option<(P2, f64)> {
+    let n = pts.len() as f64;
+    let (sx, sy) = pts.iter().fold((0.0, 0.0), |(sx, sy), p| {
+        (sx + p[0] as f64, sy + p[1] as f64)
+    });
+    let (mx, my) = (sx / n, sy / n);
+    let (mut cxx, mut cxy, mut cyy) = (0.0, 0.0, 0.0);
+    for p in pts {
+        let (dx, dy) = (p[0] as f64 - mx, p[1] as f64 - my);
+        cxx += dx * dx;
+        cxy += dx * dy;
+        cyy += dy * dy;
+    }
+    let trace = cxx + cyy;
+    if trace <= 0.0 || !trace.is_finite() {
+        return None;
+    }
+    // λ2 - λ1 of a symmetric 2 × 2 matrix; the major axis is at angle θ.
+    let gap = (cxx - cyy).hypot(2.0 * cxy);
+    let theta = 0.5 * (2.0 * cxy).atan2(cxx - cyy);
+    let mut normal = [-theta.sin(), theta.cos()];
+    if normal[0] < 0.0 || (normal[0] == 0.0 && normal[1] < 0.0) {
+        normal = [-normal[0], -normal[1]];
+    }
+    Some((normal, gap / trace))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tests() -> Tests {
+        let story = Story {
+            level: 0,
+            floor_z: 0.0,
+            ceiling_z: 3.0,
+            z_min: -0.5,
+            z_max: 3.5,
+        };
+        Tests::new(&story, &SamplesParams::default())
+    }
+
+    /// A wall along x at y = `y`, `nz` rows of `nx` points from `z0` to `z1`.
+    fn wall(x0: f32, y: f32, nx: usize, z: (f32, f32), nz: usize) -> Vec<[f32; 3]> {
+        let mut v = Vec::new();
+        for a in 0..nx {
+            for b in 0..nz {
+                let x = x0 + 0.1 * a as f32 / nx as f32;
+                let zz = z.0 + (z.1 - z.0) * b as f32 / (nz - 1) as f32;
+                let jitter = if (a + b) % 2 == 0 { 0.002 } else { -0.002 };
+                v.push([x, y + jitter, zz]);
+            }
+        }
+        v
+    }
+
+    #[test]
+    fn a_wall_cell_passes_with_the_normal_across_it() {
+        let mut pts = wall(-0.05, 0.02, 10, (0.0, 3.0), 20);
+        let w = tests().run(&mut pts, [-0.025, 0.0], 0.05, 50).unwrap();
+        assert!((w.pos[1] - 0.02).abs() < 0.003, "{w:?}");
+        assert!(w.normal[0].abs() < 1e-6 && (w.normal[1] - 1.0).abs() < 1e-9);
+        assert!(w.confidence > 0.9);
+    }
+
+    #[test]
+    fn each_test_rejects_in_turn() {
+        let t = tests();
+        let lo = [-0.025, 0.0];
+        let run = |mut pts: Vec<[f32; 3]>| t.run(&mut pts, lo, 0.05, 50);
+        // 40 points < 50.
+        assert_eq!(
+            run(wall(-0.05, 0.02, 4, (0.0, 3.0), 10)),
+            Err(Reject::TooFew)
+        );
+        // Only 1.5 m tall.
+        assert_eq!(
+            run(wall(-0.05, 0.02, 10, (0.0, 1.5), 20)),
+            Err(Reject::TooShort)
+        );
+        // Floor and ceiling only: 2 of 16 bins.
+        let mut slabs = wall(-0.05, 0.02, 10, (0.0, 0.05), 5);
+        slabs.extend(wall(-0.05, 0.02, 10, (2.95, 3.0), 5));
+        assert_eq!(run(slabs), Err(Reject::Gappy));
+        // A wall stopping at 2.2 m under a 3 m ceiling, with a lamp at the ceiling.
+        let mut low = wall(-0.05, 0.02, 10, (0.0, 2.2), 20);
+        low.extend(wall(-0.05, 0.02, 2, (2.98, 3.0), 2));
+        assert_eq!(run(low), Err(Reject::NoTop));
+        // A wall in the next cell over: its median lies outside this one.
+        assert_eq!(
+            run(wall(-0.05, 0.06, 10, (0.0, 3.0), 20)),
+            Err(Reject::MedianOutside)
+        );
+        // A blob: points spread evenly over a disc, no direction.
+        let blob: Vec<[f32; 3]> = (0..200)
+            .map(|k| {
+                let a = k as f32 * 2.399_963; // golden angle
+                let r = 0.04 * ((k as f32 + 0.5) / 200.0).sqrt();
+                [r * a.cos(), 0.025 + r * a.sin(), 3.0 * k as f32 / 199.0]
+            })
+            .collect();
+        assert_eq!(run(blob), Err(Reject::Unaligned));
+    }
+
+    #[test]
+    fn a_crossing_is_rejected_and_an_l_corner_gets_the_diagonal() {
+        // Arms of 10 points at 5 mm steps from the cell centre.
+        let arm = |dir: [f32; 2]| {
+            (0..10).flat_map(move |k| {
+                (0..16).map(move |b| {
+                    let s = 0.005 * k as f32;
+                    [dir[0] * s, 0.025 + dir[1] * s, 3.0 * b as f32 / 15.0]
+                })
+            })
+        };
+        // Two walls crossing: the covariance is isotropic, c = 0.
+        let mut cross: Vec<[f32; 3]> = [[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]]
+            .into_iter()
+            .flat_map(arm)
+            .collect();
+        let (_, c) = pca_normal(&cross).unwrap();
+        assert!(c < 0.01, "c = {c}");
+        assert_eq!(
+            tests().run(&mut cross, [-0.025, 0.0], 0.05, 50),
+            Err(Reject::Unaligned)
+        );
+        // An L of equal arms: per point, var = E[s²]/2 - m²/4 and cov = -m²/4 with m = E[s],
+        // so c = |cov|/var = 0.5 × 0.0225² / (0.0007125 - 0.5 × 0.0225²) ≈ 0.555, along the
+        // diagonal. The paper's threshold keeps such corners.
+        let l: Vec<[f32; 3]> = [[1.0, 0.0], [0.0, 1.0]].into_iter().flat_map(arm).collect();
+        let (n, c) = pca_normal(&l).unwrap();
+        let m2 = 0.0225f64.powi(2);
+        assert!(
+            (c - 0.5 * m2 / (0.0007125 - 0.5 * m2)).abs() < 1e-3,
+            "c = {c}"
+        );
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        assert!((n[0] - h).abs() < 1e-4 && (n[1] - h).abs() < 1e-4, "{n:?}");
+    }
+
+    #[test]
+    fn pca_of_a_slanted_line_is_perpendicular_and_confident() {
+        let d = [0.6f32, 0.8];
+        let pts: Vec<[f32; 3]> = (0..50)
+            .map(|k| {
+                let s = k as f32 * 0.01 - 0.25;
+                [d[0] * s, d[1] * s, 0.0]
+            })
+            .collect();
+        let (n, c) = pca_normal(&pts).unwrap();
+        assert!((n[0] * d[0] as f64 + n[1] * d[1] as f64).abs() < 1e-6);
+        assert!(n[0] > 0.0 && (crate::geom::norm(n) - 1.0).abs() < 1e-12);
+        assert!((c - 1.0).abs() < 1e-9);
+        assert_eq!(pca_normal(&[[1.0, 1.0, 0.0]; 3]), None);
+    }
+
+    #[test]
+    fn sparse_walls_need_fewer_bins_when_density_aware() {
+        let t = tests();
+        assert_eq!(t.required(200), (12, 3));
+        assert_eq!(t.required(50), (12, 3));
+        let (filled, top) = t.required(20);
+        assert!(filled < 12 && filled >= 8, "{filled}");
+        assert!(top <= 3);
+        let paper = Tests {
+            density_aware: false,
+            ..t
+        };
+        assert_eq!(paper.required(20), (12, 3));
+    }
+}

@@ -1,0 +1,311 @@
+//! Which scanner positions saw a wall sample (§3.1): the normal is flipped toward them, and a
+//! sample seen only from far away is dropped.
+//!
+//! A point's viewer is its static scan's pose (by the `scan` slot), or the mobile trajectory's
+//! position at the point's time. Only viewpoints inside the story's z range are listed, so a
+//! scanner on another floor never becomes a viewpoint of this one; when no pose lies in the
+//! range (heights unknown), all are listed.
+
+use crate::cloud::{PointCloud, TrajectorySample, Viewpoints};
+use crate::geom::{dist, dot, sub, P2};
+use crate::stories::Story;
+
+/// Spacing of the viewpoints listed along a mobile trajectory, metres. Closer positions add
+/// lines of sight that say nothing new.
+pub(super) const TRAJECTORY_SPACING: f64 = 0.5;
+
+/// The scanner positions of one story, and how to find each point's viewer.
+pub(super) struct Views<'a> {
+    kind: Kind<'a>,
+    /// Listed viewpoints, local x, y.
+    pub viewpoints: Vec<P2>,
+    /// The trajectory through the story, local x, y, in time order.
+    pub path: Vec<P2>,
+}
+
+enum Kind<'a> {
+    None,
+    Static {
+        scan: &'a [u16],
+        poses: Vec<P2>,
+        /// Per scan slot, its index in `viewpoints` when listed.
+        listed: Vec<Option<u32>>,
+    },
+    Trajectory {
+        time: &'a [f64],
+        traj: Vec<TrajectorySample>,
+        /// Times of the listed viewpoints, ascending.
+        listed_t: Vec<f64>,
+    },
+}
+
+/// What the scanners say about one sample.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Seen {
+    /// The normal, flipped toward the scanners when any saw the sample.
+    pub normal: P2,
+    /// Listed viewpoints that saw the sample, ascending.
+    pub seen_from: Vec<u32>,
+    /// Horizontal distance to the nearest scanner that saw it; `None` without poses.
+    pub nearest: Option<f64>,
+}
+
+impl<'a> Views<'a> {
+    pub fn new(cloud: &'a PointCloud, story: &Story) -> Views<'a> {
+        let in_story = |p: &[f64; 3]| p[2] >= story.z_min && p[2] < story.z_max;
+        match &cloud.viewpoints {
+            Viewpoints::Static(poses) if !poses.is_empty() => {
+                let any_inside = poses.iter().any(|p| in_story(&p.position));
+                let mut viewpoints = Vec::new();
+                let listed = poses
+                    .iter()
+                    .map(|p| {
+                        (!any_inside || in_story(&p.position)).then(|| {
+                            viewpoints.push([p.position[0], p.position[1]]);
+                            viewpoints.len() as u32 - 1
+                        })
+                    })
+                    .collect();
+                let kind = Kind::Static {
+                    scan: &cloud.scan,
+                    poses: poses
+                        .iter()
+                        .map(|p| [p.position[0], p.position[1]])
+                        .collect(),
+                    listed,
+                };
+                Views {
+                    kind,
+                    viewpoints,
+                    path: Vec::new(),
+                }
+            }
+            Viewpoints::Trajectory(samples) if !samples.is_empty() => {
+                let mut traj = samples.clone();
+                traj.sort_by(|a, b| a.t.total_cmp(&b.t));
+                let any_inside = traj.iter().any(|s| in_story(&s.position));
+                let inside: Vec<&TrajectorySample> = traj
+                    .iter()
+                    .filter(|s| !any_inside || in_story(&s.position))
+                    .collect();
+                let path: Vec<P2> = inside
+                    .iter()
+                    .map(|s| [s.position[0], s.position[1]])
+                    .collect();
+                let (mut viewpoints, mut listed_t) = (Vec::<P2>::new(), Vec::new());
+                for (s, p) in inside.iter().zip(&path) {
+                    if viewpoints
+                        .last()
+                        .is_none_or(|&last| dist(last, *p) >= TRAJECTORY_SPACING)
+                    {
+                        viewpoints.push(*p);
+                        listed_t.push(s.t);
+                    }
+                }
+                let kind = Kind::Trajectory {
+                    time: &cloud.time,
+                    traj,
+                    listed_t,
+                };
+                Views {
+                    kind,
+                    viewpoints,
+                    path,
+                }
+            }
+            _ => Views {
+                kind: Kind::None,
+                viewpoints: Vec::new(),
+                path: Vec::new(),
+            },
+        }
+    }
+
+    /// The viewer of point `i`: its position and listed viewpoint, when known.
+    fn viewer(&self, i: usize) -> Option<(P2, Option<u32>)> {
+        match &self.kind {
+            Kind::None => None,
+            Kind::Static {
+                scan,
+                poses,
+                listed,
+            } => {
+                // A cloud without scan slots and a single pose was all seen from it.
+                let slot = match scan.get(i) {
+                    Some(&s) => s as usize,
+                    None if scan.is_empty() && poses.len() == 1 => 0,
+                    None => return None,
+                };
+                Some((*poses.get(slot)?, *listed.get(slot)?))
+            }
+            Kind::Trajectory {
+                time,
+                traj,
+                listed_t,
+            } => {
+                let t = *time.get(i)?;
+                Some((position_at(traj, t)?, nearest_in_time(listed_t, t)))
+            }
+        }
+    }
+
+    /// Orients `normal` by a majority of the points `idx` around the sample at `pos` (each point
+    /// votes for the side its scanner stood on; a tie goes to the nearest scanner), and lists
+    /// the viewpoints that saw it.
+    pub fn observe(&self, idx: &[u32], pos: P2, normal: P2) -> Seen {
+        let mut votes = 0i64;
+        let mut nearest: Option<(f64, f64)> = None;
+        let mut seen_from = Vec::new();
+        for &i in idx {
+            let Some((v, id)) = self.viewer(i as usize) else {
+                continue;
+            };
+            let side = dot(normal, sub(v, pos));
+            votes += side.signum() as i64;
+            let d = dist(v, pos);
+            if nearest.is_none_or(|(best, _)| d < best) {
+                nearest = Some((d, side));
+            }
+            if let Some(id) = id {
+                seen_from.push(id);
+            }
+        }
+        seen_from.sort_unstable();
+        seen_from.dedup();
+        let flip = votes < 0 || (votes == 0 && nearest.is_some_and(|(_, side)| side < 0.0));
+        Seen {
+            normal: if flip {
+                [-normal[0], -normal[1]]
+            } else {
+                normal
+            },
+            seen_from,
+            nearest: nearest.map(|(d, _)| d),
+        }
+    }
+}
+
+/// The trajectory's x, y at time `t`, interpolated linearly and clamped to its ends.
+fn position_at(traj: &[TrajectorySample], t: f64) -> Option<P2> {
+    if !t.is_finite() {
+        return None;
+    }
+    let k = traj.partition_point(|s| s.t <= t);
+    let xy = |s: &TrajectorySample| [s.position[0], s.position[1]];
+    match k {
+        0 => traj.first().map(xy),
+        k if k == traj.len() => traj.last().map(xy),
+        k => {
+            let (a, b) = (&traj[k - 1], &traj[k]);
+            let w = if b.t > a.t {
+                (t - a.t) / (b.t - a.t)
+            } else {
+                0.0
+            };
+            Some([
+                a.position[0] + w * (b.position[0] - a.position[0]),
+                a.position[1] + w * (b.position[1] - a.position[1]),
+            ])
+        }
+    }
+}
+
+/// The index of the time in `sorted` nearest to `t`.
+fn nearest_in_time(sorted: &[f64], t: f64) -> Option<u32> {
+    if sorted.is_empty() || !t.is_finite() {
+        return None;
+    }
+    let k = sorted.partition_point(|&s| s <= t);
+    let best = match k {
+        0 => 0,
+        k if k == sorted.len() => k - 1,
+        k if t - sorted[k - 1] <= sorted[k] - t => k - 1,
+        k => k,
+    };
+    Some(best as u32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cloud::ScanPose;
+
+    fn story() -> Story {
+        Story {
+            level: 0,
+            floor_z: 0.0,
+            ceiling_z: 3.0,
+            z_min: -0.5,
+            z_max: 3.5,
+        }
+    }
+
+    fn pose(index: u32, position: [f64; 3]) -> ScanPose {
+        ScanPose {
+            index,
+            position,
+            quaternion: [1.0, 0.0, 0.0, 0.0],
+        }
+    }
+
+    #[test]
+    fn static_poses_on_another_floor_are_not_listed() {
+        let cloud = PointCloud {
+            xyz: vec![[0.0, 0.0, 1.0]; 4],
+            scan: vec![0, 0, 1, 1],
+            scan_ids: vec![1, 2],
+            viewpoints: Viewpoints::Static(vec![
+                pose(1, [0.0, -2.0, 1.5]),
+                pose(2, [5.0, 5.0, 4.5]),
+            ]),
+            ..Default::default()
+        };
+        let views = Views::new(&cloud, &story());
+        assert_eq!(views.viewpoints, vec![[0.0, -2.0]]);
+        // Points 0 and 1 come from the listed scan, 2 and 3 from the upper one: a tie of
+        // votes (the normal faces both), broken by the nearer scanner at y = -2.
+        let seen = views.observe(&[0, 1, 2, 3], [0.0, 0.0], [0.0, 1.0]);
+        assert_eq!(seen.normal, [0.0, -1.0]);
+        assert_eq!(seen.seen_from, vec![0]);
+        assert_eq!(seen.nearest, Some(2.0));
+    }
+
+    #[test]
+    fn trajectory_positions_are_interpolated_and_thinned() {
+        let traj: Vec<TrajectorySample> = (0..=10)
+            .map(|k| TrajectorySample {
+                t: k as f64,
+                position: [0.1 * k as f64, -1.0, 1.5],
+                quaternion: [1.0, 0.0, 0.0, 0.0],
+            })
+            .collect();
+        assert_eq!(position_at(&traj, 2.5), Some([0.25, -1.0]));
+        assert_eq!(position_at(&traj, -3.0), Some([0.0, -1.0]));
+        let cloud = PointCloud {
+            xyz: vec![[0.0, 0.0, 1.0]; 2],
+            time: vec![2.5, 9.0],
+            viewpoints: Viewpoints::Trajectory(traj),
+            ..Default::default()
+        };
+        let views = Views::new(&cloud, &story());
+        assert_eq!(views.path.len(), 11);
+        // Every 0.5 m: x = 0, 0.5, 1.
+        assert_eq!(views.viewpoints.len(), 3, "{:?}", views.viewpoints);
+        let seen = views.observe(&[0, 1], [0.25, 0.0], [0.0, 1.0]);
+        assert_eq!(seen.normal, [0.0, -1.0]);
+        assert_eq!(seen.seen_from, vec![0, 2]);
+        assert!((seen.nearest.unwrap() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn without_poses_nothing_is_seen() {
+        let cloud = PointCloud {
+            xyz: vec![[0.0, 0.0, 1.0]],
+            ..Default::default()
+        };
+        let views = Views::new(&cloud, &story());
+        let seen = views.observe(&[0], [0.0, 0.0], [0.0, 1.0]);
+        assert_eq!(seen.normal, [0.0, 1.0]);
+        assert!(seen.seen_from.is_empty() && seen.nearest.is_none());
+    }
+}
