@@ -2,7 +2,7 @@
 //! flattened into index arrays that the later stages walk.
 
 use spade::handles::FixedVertexHandle;
-use spade::{DelaunayTriangulation, Point2, Triangulation};
+use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};
 
 use crate::geom::{self, P2};
 
@@ -35,60 +35,99 @@ pub enum MeshError {
     BadCoordinate(P2),
 }
 
+/// A vertex handed to spade: its position and where it came from.
+#[derive(Debug, Clone, Copy)]
+struct Tagged {
+    pos: Point2<f64>,
+    /// Index into the input points, or `n_points + k` for box corner `k`.
+    id: u32,
+}
+
+impl HasPosition for Tagged {
+    type Scalar = f64;
+    fn position(&self) -> Point2<f64> {
+        self.pos
+    }
+}
+
 impl Mesh {
-    /// Triangulates `points` (with their `normals`) plus four box corners. Points closer than
-    /// 1 mm are merged, keeping the first.
+    /// Triangulates `points` (with their `normals`) plus four box corners. Points are snapped to
+    /// a 1 mm grid; points landing on the same grid node merge (one of them is kept).
     pub fn build(points: &[P2], normals: &[P2]) -> Result<Mesh, MeshError> {
         if let Some(bad) = points.iter().find(|p| {
             !(p[0].is_finite() && p[1].is_finite()) || p[0].abs() > 1e9 || p[1].abs() > 1e9
         }) {
             return Err(MeshError::BadCoordinate(*bad));
         }
+        if points.len() >= u32::MAX as usize - 8 {
+            return Err(MeshError::TooFewSamples(0));
+        }
         let (lo, hi) = bounds(points).ok_or(MeshError::TooFewSamples(0))?;
         let diag = geom::dist(lo, hi);
         let margin = (0.1 * diag).max(2.0);
-        let mut tri: DelaunayTriangulation<Point2<f64>> = DelaunayTriangulation::new();
-        let mut vertices = Vec::new();
-        let mut out_normals = Vec::new();
-        let mut sample_of = Vec::new();
-        let mut handle_to_vertex = std::collections::HashMap::new();
-        for (i, p) in points.iter().enumerate() {
-            let snapped = Point2::new(
-                (p[0] * 1000.0).round() / 1000.0,
-                (p[1] * 1000.0).round() / 1000.0,
-            );
-            let before = tri.num_vertices();
-            let h = tri
-                .insert(snapped)
-                .map_err(|_| MeshError::BadCoordinate(*p))?;
-            if tri.num_vertices() > before {
-                handle_to_vertex.insert(h, vertices.len() as u32);
-                vertices.push([snapped.x, snapped.y]);
-                out_normals.push(normals.get(i).copied().unwrap_or([0.0, 0.0]));
-                sample_of.push(i as u32);
-            }
-        }
-        let n_samples = vertices.len();
-        if n_samples < 3 {
-            return Err(MeshError::TooFewSamples(n_samples));
-        }
-        for c in [
+        let n_points = points.len();
+        let mut tagged: Vec<Tagged> = points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| Tagged {
+                pos: Point2::new(
+                    (p[0] * 1000.0).round() / 1000.0,
+                    (p[1] * 1000.0).round() / 1000.0,
+                ),
+                id: i as u32,
+            })
+            .collect();
+        let box_corners = [
             [lo[0] - margin, lo[1] - margin],
             [hi[0] + margin, lo[1] - margin],
             [hi[0] + margin, hi[1] + margin],
             [lo[0] - margin, hi[1] + margin],
-        ] {
-            let h = tri
-                .insert(Point2::new(c[0], c[1]))
-                .map_err(|_| MeshError::BadCoordinate(c))?;
-            handle_to_vertex.insert(h, vertices.len() as u32);
-            vertices.push(c);
-            out_normals.push([0.0, 0.0]);
-            sample_of.push(u32::MAX);
+        ];
+        for (k, c) in box_corners.iter().enumerate() {
+            tagged.push(Tagged {
+                pos: Point2::new(c[0], c[1]),
+                id: (n_points + k) as u32,
+            });
+        }
+        // Bulk loading sorts the points along a space-filling order: much faster than inserting
+        // 100k samples one by one.
+        let tri: DelaunayTriangulation<Tagged> = DelaunayTriangulation::bulk_load(tagged)
+            .map_err(|_| MeshError::BadCoordinate(lo))?;
+        // Samples first, in input order, then the corners.
+        let mut kept: Vec<(u32, usize)> = tri
+            .vertices()
+            .map(|v| (v.data().id, v.fix().index()))
+            .collect();
+        kept.sort_unstable();
+        let n_samples = kept.iter().filter(|(id, _)| (*id as usize) < n_points).count();
+        if n_samples < 3 {
+            return Err(MeshError::TooFewSamples(n_samples));
+        }
+        if kept.len() != n_samples + 4 {
+            // A corner merged with a sample: impossible with a positive margin, but never index past it.
+            return Err(MeshError::BadCoordinate(lo));
+        }
+        let mut vertex_of_handle = vec![u32::MAX; tri.num_vertices()];
+        let mut vertices = Vec::with_capacity(kept.len());
+        let mut out_normals = Vec::with_capacity(kept.len());
+        let mut sample_of = Vec::with_capacity(kept.len());
+        for &(id, h) in &kept {
+            vertex_of_handle[h] = vertices.len() as u32;
+            let id = id as usize;
+            if id < n_points {
+                let p = tri.vertex(FixedVertexHandle::from_index(h)).data().pos;
+                vertices.push([p.x, p.y]);
+                out_normals.push(normals.get(id).copied().unwrap_or([0.0, 0.0]));
+                sample_of.push(id as u32);
+            } else {
+                vertices.push(box_corners[id - n_points]);
+                out_normals.push([0.0, 0.0]);
+                sample_of.push(u32::MAX);
+            }
         }
         Ok(Self::from_spade(
             &tri,
-            &handle_to_vertex,
+            &vertex_of_handle,
             vertices,
             out_normals,
             sample_of,
@@ -97,19 +136,19 @@ impl Mesh {
     }
 
     fn from_spade(
-        tri: &DelaunayTriangulation<Point2<f64>>,
-        handle_to_vertex: &std::collections::HashMap<FixedVertexHandle, u32>,
+        tri: &DelaunayTriangulation<Tagged>,
+        vertex_of_handle: &[u32],
         vertices: Vec<P2>,
         normals: Vec<P2>,
         sample_of: Vec<u32>,
         n_samples: usize,
     ) -> Mesh {
-        let mut face_index = std::collections::HashMap::new();
+        let mut face_index = vec![NONE; tri.all_faces().len()];
         let mut triangles = Vec::with_capacity(tri.num_inner_faces());
         for (i, f) in tri.inner_faces().enumerate() {
-            face_index.insert(f.fix(), i as u32);
+            face_index[f.fix().index()] = i as u32;
             let v = f.vertices();
-            triangles.push(v.map(|h| handle_to_vertex[&h.fix()]));
+            triangles.push(v.map(|h| vertex_of_handle[h.fix().index()]));
         }
         let mut neighbors = vec![[NONE; 3]; triangles.len()];
         for (i, f) in tri.inner_faces().enumerate() {
@@ -117,7 +156,7 @@ impl Mesh {
             for (k, e) in f.adjacent_edges().iter().enumerate() {
                 let across = e.rev().face();
                 if let Some(inner) = across.as_inner() {
-                    neighbors[i][(k + 2) % 3] = face_index[&inner.fix()];
+                    neighbors[i][(k + 2) % 3] = face_index[inner.fix().index()];
                 }
             }
         }

@@ -1,0 +1,224 @@
+//! Hard constraints (§3.3): box-corner triangles outside; triangles crossed by enough lines of
+//! sight, containing a scanner pose, or crossed by the mobile path inside. Outside wins on conflict.
+
+use rayon::prelude::*;
+
+use super::mesh::Mesh;
+use super::walk::{locate, segment_triangles};
+use crate::geom::P2;
+use crate::samples::WallSamples;
+
+/// The forced labels and how they came about.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(crate) struct Constraints {
+    /// Per triangle: `Some(true)` forced inside, `Some(false)` forced outside.
+    pub forced: Vec<Option<bool>>,
+    pub outside: usize,
+    pub inside_rays: usize,
+    pub inside_poses: usize,
+    pub inside_path: usize,
+    /// Triangles that evidence put inside but that touch a box corner (kept outside).
+    pub conflicts: usize,
+    /// Lines of sight walked.
+    pub rays: usize,
+    /// Lines of sight not walked: viewpoint outside the triangulation or a degenerate start.
+    pub rays_skipped: usize,
+    /// Viewpoints outside the triangulation.
+    pub poses_outside: usize,
+}
+
+/// Computes the hard constraints for `mesh` from the samples' viewpoints and path.
+/// `min_rays` lines of sight force a triangle inside; each line of sight is the central
+/// `ray_fraction` of its viewpoint→sample segment.
+pub(crate) fn hard_constraints(
+    mesh: &Mesh,
+    samples: &WallSamples,
+    min_rays: u32,
+    ray_fraction: f64,
+) -> Constraints {
+    let nt = mesh.triangles.len();
+    let mut c = Constraints {
+        forced: vec![None; nt],
+        ..Default::default()
+    };
+    // Where each viewpoint is; chained hints keep the walks short for a trajectory.
+    let mut hint = 0u32;
+    let vp_tri: Vec<Option<u32>> = samples
+        .viewpoints
+        .iter()
+        .map(|&p| {
+            let t = finite(p).then(|| locate(mesh, p, hint)).flatten();
+            if let Some(t) = t {
+                hint = t;
+            }
+            t
+        })
+        .collect();
+    c.poses_outside = vp_tri.iter().filter(|t| t.is_none()).count();
+
+    let mut inside = vec![false; nt];
+    let mark = |t: u32, why: &mut usize, inside: &mut Vec<bool>| {
+        if !inside[t as usize] {
+            inside[t as usize] = true;
+            *why += 1;
+        }
+    };
+    for t in vp_tri.iter().flatten() {
+        mark(*t, &mut c.inside_poses, &mut inside);
+    }
+
+    // Mobile path: every triangle a path segment crosses.
+    let mut path_hint = vp_tri.iter().flatten().next().copied().unwrap_or(0);
+    for w in samples.path.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        if !(finite(a) && finite(b)) {
+            continue;
+        }
+        let Some(start) = locate(mesh, a, path_hint) else {
+            continue;
+        };
+        path_hint = start;
+        let mut crossed = Vec::new();
+        segment_triangles(mesh, start, a, b, 0.0, 1.0, |t| crossed.push(t));
+        for t in crossed {
+            mark(t, &mut c.inside_path, &mut inside);
+        }
+    }
+
+    // Lines of sight, counted once per ray and triangle.
+    let f = ray_fraction.clamp(0.0, 1.0);
+    let (lo, hi) = ((1.0 - f) / 2.0, (1.0 + f) / 2.0);
+    let (counts, walked, skipped) = samples
+        .samples
+        .par_iter()
+        .with_min_len(256)
+        .fold(
+            || (vec![0u32; nt], 0usize, 0usize),
+            |(mut counts, mut walked, mut skipped), s| {
+                for &v in &s.seen_from {
+                    let (Some(&a), Some(Some(start))) = (
+                        samples.viewpoints.get(v as usize),
+                        vp_tri.get(v as usize),
+                    ) else {
+                        skipped += 1;
+                        continue;
+                    };
+                    if !finite(s.pos)
+                        || !segment_triangles(mesh, *start, a, s.pos, lo, hi, |t| {
+                            counts[t as usize] += 1
+                        })
+                    {
+                        skipped += 1;
+                        continue;
+                    }
+                    walked += 1;
+                }
+                (counts, walked, skipped)
+            },
+        )
+        .reduce(
+            || (vec![0u32; nt], 0, 0),
+            |(mut a, wa, sa), (b, wb, sb)| {
+                a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
+                (a, wa + wb, sa + sb)
+            },
+        );
+    c.rays = walked;
+    c.rays_skipped = skipped;
+    for (t, &n) in counts.iter().enumerate() {
+        if n >= min_rays.max(1) {
+            mark(t as u32, &mut c.inside_rays, &mut inside);
+        }
+    }
+
+    for t in 0..nt {
+        if mesh.touches_corner(t) {
+            c.forced[t] = Some(false);
+            c.outside += 1;
+            if inside[t] {
+                c.conflicts += 1;
+            }
+        } else if inside[t] {
+            c.forced[t] = Some(true);
+        }
+    }
+    c
+}
+
+fn finite(p: P2) -> bool {
+    p[0].is_finite() && p[1].is_finite()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::samples::WallSample;
+
+    fn sample(pos: P2, seen_from: Vec<u32>) -> WallSample {
+        WallSample {
+            pos,
+            normal: [0.0, 1.0],
+            confidence: 1.0,
+            seen_from,
+        }
+    }
+
+    /// A 4 m square room sampled every 0.1 m, seen from `vps`.
+    fn room(vps: Vec<P2>) -> WallSamples {
+        let mut s = Vec::new();
+        let all: Vec<u32> = (0..vps.len() as u32).collect();
+        for i in 0..40 {
+            let x = i as f64 * 0.1;
+            for p in [[x, 0.0], [4.0, x], [4.0 - x, 4.0], [0.0, 4.0 - x]] {
+                s.push(sample(p, all.clone()));
+            }
+        }
+        WallSamples {
+            samples: s,
+            viewpoints: vps,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn poses_rays_and_corners_force_the_expected_triangles() {
+        let ws = room(vec![[2.0, 2.1], [1.1, 1.3]]);
+        let pts: Vec<P2> = ws.samples.iter().map(|s| s.pos).collect();
+        let mesh = Mesh::build(&pts, &[]).unwrap();
+        let c = hard_constraints(&mesh, &ws, 10, 0.5);
+        assert_eq!(c.rays, 2 * ws.samples.len());
+        assert_eq!(c.rays_skipped, 0);
+        assert_eq!(c.inside_poses, 2);
+        assert!(c.inside_rays > 0);
+        for t in 0..mesh.triangles.len() {
+            let [a, b, cc] = mesh.corners(t);
+            let centroid = [(a[0] + b[0] + cc[0]) / 3.0, (a[1] + b[1] + cc[1]) / 3.0];
+            let in_room = (0.0..=4.0).contains(&centroid[0]) && (0.0..=4.0).contains(&centroid[1]);
+            match c.forced[t] {
+                // Forced inside only within the room.
+                Some(true) => assert!(in_room, "triangle {t} forced inside outside the room"),
+                Some(false) => assert!(mesh.touches_corner(t)),
+                None => assert!(!mesh.touches_corner(t)),
+            }
+        }
+        // The pose triangle is forced inside.
+        let t = locate(&mesh, [2.0, 2.1], 0).unwrap();
+        assert_eq!(c.forced[t as usize], Some(true));
+        assert_eq!(c.conflicts, 0);
+    }
+
+    #[test]
+    fn path_forces_crossed_triangles_and_outside_wins() {
+        let mut ws = room(vec![]);
+        // The path runs through the room and out through the wall into the box.
+        ws.path = vec![[0.5, 0.5], [3.5, 3.5], [7.0, 3.5]];
+        let pts: Vec<P2> = ws.samples.iter().map(|s| s.pos).collect();
+        let mesh = Mesh::build(&pts, &[]).unwrap();
+        let c = hard_constraints(&mesh, &ws, 10, 0.5);
+        assert!(c.inside_path > 0);
+        assert!(c.conflicts > 0, "the path leaves the room into corner triangles");
+        let t = locate(&mesh, [2.0, 2.0], 0).unwrap();
+        assert_eq!(c.forced[t as usize], Some(true));
+        assert_eq!(c.rays, 0);
+    }
+}
