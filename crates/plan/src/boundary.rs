@@ -258,7 +258,9 @@ impl Boundary {
                 let nb = mesh.neighbors[t][k];
                 if nb == NONE || !labeled.inside[nb as usize] {
                     let tri = mesh.triangles[t];
-                    *edges.entry((tri[(k + 1) % 3], tri[(k + 2) % 3])).or_default() += 1;
+                    *edges
+                        .entry((tri[(k + 1) % 3], tri[(k + 2) % 3]))
+                        .or_default() += 1;
                 }
             }
         }
@@ -357,7 +359,35 @@ mod tests {
         assert_eq!(ext.vertices.len(), pts.len());
         // Corners are cut by half a sample step: 4 triangles of 0.025² / 2 are missing.
         let expected = 12.0 - 4.0 * 0.025 * 0.025 / 2.0;
-        assert!((ext.signed_area - expected).abs() < 1e-9, "{}", ext.signed_area);
+        assert!(
+            (ext.signed_area - expected).abs() < 1e-9,
+            "{}",
+            ext.signed_area
+        );
+    }
+
+    #[test]
+    fn duplicate_samples_do_not_change_the_boundary() {
+        let room = vec![[0.0, 0.0], [4.0, 0.0], [4.0, 3.0], [0.0, 3.0]];
+        let (pts, normals) = ring_samples(&room, 0.05);
+        let once = label_by_rings(
+            Mesh::build(&pts, &normals).unwrap(),
+            std::slice::from_ref(&room),
+        );
+        let twice_pts: Vec<P2> = pts.iter().flat_map(|&p| [p, p]).collect();
+        let twice_n: Vec<P2> = normals.iter().flat_map(|&n| [n, n]).collect();
+        let twice = label_by_rings(Mesh::build(&twice_pts, &twice_n).unwrap(), &[room]);
+        let (a, b) = (
+            trace_boundary(&once).unwrap(),
+            trace_boundary(&twice).unwrap(),
+        );
+        a.check(&once).unwrap();
+        b.check(&twice).unwrap();
+        assert_eq!(a.polygons.len(), 1);
+        assert_eq!(
+            ring_points(&once, &a.polygons[0].exterior),
+            ring_points(&twice, &b.polygons[0].exterior)
+        );
     }
 
     #[test]

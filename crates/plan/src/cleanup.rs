@@ -3,7 +3,7 @@
 //! Regions are edge-connected sets of triangles with the same label, found with union-find.
 //! Small inside regions become outside, then (regions recomputed) small outside regions become
 //! inside. Protrusions (a triangle whose only same-label neighbour sits across its shortest
-//! edge) are then peeled, inside ones first. Forced labels never change.
+//! edge) are then relabelled in one pass each, inside ones first. Forced labels never change.
 
 use serde::{Deserialize, Serialize};
 
@@ -53,8 +53,7 @@ pub fn clean_labels(labeled: &mut LabeledMesh, params: &CleanupParams) -> Cleanu
         return report;
     }
     report.small_inside_flipped = flip_small_regions(labeled, true, params, f64::INFINITY);
-    report.small_outside_flipped =
-        flip_small_regions(labeled, false, params, params.max_hole_area);
+    report.small_outside_flipped = flip_small_regions(labeled, false, params, params.max_hole_area);
     if params.remove_protrusions {
         report.protrusions_flipped =
             peel_protrusions(labeled, true) + peel_protrusions(labeled, false);
@@ -166,30 +165,22 @@ fn is_protrusion(mesh: &Mesh, inside: &[bool], t: usize) -> bool {
     same(shortest)
 }
 
-/// Relabels protrusions labelled `label` until none is left. A flip can expose the next
-/// triangle of a spike, so neighbours of flipped triangles are re-examined. Each triangle flips
-/// at most once (labels only move away from `label`), so this ends.
+/// Relabels every protrusion labelled `label` (§3.4: inside ones first, then outside ones).
+/// Protrusions are found on the labels as they were before the pass, so one pass removes the
+/// tips of spikes and does not cascade into acute corners.
 fn peel_protrusions(labeled: &mut LabeledMesh, label: bool) -> usize {
     let mesh = &labeled.mesh;
-    let mut queue: Vec<usize> = (0..mesh.triangles.len()).rev().collect();
-    let mut flipped = 0;
-    while let Some(t) = queue.pop() {
-        if labeled.inside[t] != label
-            || labeled.forced[t].is_some()
-            || !is_protrusion(mesh, &labeled.inside, t)
-        {
-            continue;
-        }
+    let flip: Vec<usize> = (0..mesh.triangles.len())
+        .filter(|&t| {
+            labeled.inside[t] == label
+                && labeled.forced[t].is_none()
+                && is_protrusion(mesh, &labeled.inside, t)
+        })
+        .collect();
+    for &t in &flip {
         labeled.inside[t] = !label;
-        flipped += 1;
-        queue.extend(
-            mesh.neighbors[t]
-                .iter()
-                .filter(|&&n| n != NONE)
-                .map(|&n| n as usize),
-        );
     }
-    flipped
+    flip.len()
 }
 
 #[cfg(test)]
@@ -280,9 +271,10 @@ pub(crate) mod tests {
         for i in 0..26 {
             for j in 0..22 {
                 let p = [-0.6 + 0.2 * i as f64 + 0.013, -0.6 + 0.2 * j as f64 + 0.017];
-                let near_wall = room.iter().enumerate().any(|(k, &a)| {
-                    geom::point_segment_distance(p, a, room[(k + 1) % 4]) < 0.06
-                });
+                let near_wall = room
+                    .iter()
+                    .enumerate()
+                    .any(|(k, &a)| geom::point_segment_distance(p, a, room[(k + 1) % 4]) < 0.06);
                 if !near_wall {
                     pts.push(p);
                     normals.push([1.0, 0.0]);
@@ -362,7 +354,11 @@ pub(crate) mod tests {
         assert_eq!(b.polygons.len(), 1);
         assert_eq!(b.polygons[0].holes.len(), 1);
         let hole = &b.polygons[0].holes[0];
-        assert!((hole.signed_area + 0.09).abs() < 0.02, "{}", hole.signed_area);
+        assert!(
+            (hole.signed_area + 0.09).abs() < 0.02,
+            "{}",
+            hole.signed_area
+        );
         // Without the area guard the paper's rule fills the column in.
         let mut paper = CleanupParams::default();
         paper.max_hole_area = f64::INFINITY;
@@ -402,7 +398,11 @@ pub(crate) mod tests {
         no_peel.remove_protrusions = false;
         let mut kept = l.clone();
         assert_eq!(clean_labels(&mut kept, &no_peel).protrusions_flipped, 0);
-        assert_eq!(inside_area(&kept), before, "small-region removal must not see the spur");
+        assert_eq!(
+            inside_area(&kept),
+            before,
+            "small-region removal must not see the spur"
+        );
         let report = clean_labels(&mut l, &CleanupParams::default());
         assert_eq!(report.protrusions_flipped, 1);
         assert!((inside_area(&l) - (12.0 - 0.00125)).abs() < 1e-9);

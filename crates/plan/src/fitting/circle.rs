@@ -45,9 +45,9 @@ impl Circle {
             return None;
         }
         let n = points.len() as f64;
-        let c = points
-            .iter()
-            .fold([0.0, 0.0], |acc, &p| geom::add(acc, geom::scale(p, 1.0 / n)));
+        let c = points.iter().fold([0.0, 0.0], |acc, &p| {
+            geom::add(acc, geom::scale(p, 1.0 / n))
+        });
         let mut ata = Matrix3::<f64>::zeros();
         let mut atb = Vector3::<f64>::zeros();
         for p in points {
@@ -178,7 +178,10 @@ mod tests {
     fn least_squares_fit_of_a_noisy_quarter_arc() {
         // A 90° arc of radius 5 about (3, -2) with alternating ±5 mm radial offsets: Kåsa is
         // biased on partial arcs, Gauss-Newton removes the bias.
-        let truth = Circle { center: [3.0, -2.0], radius: 5.0 };
+        let truth = Circle {
+            center: [3.0, -2.0],
+            radius: 5.0,
+        };
         let pts: Vec<P2> = (0..80)
             .map(|i| {
                 let a = 0.3 + i as f64 * (std::f64::consts::FRAC_PI_2 / 79.0);
@@ -187,27 +190,48 @@ mod tests {
             })
             .collect();
         let c = Circle::fit(&pts).unwrap();
-        assert!((c.radius - truth.radius).abs() < 1e-3, "radius {}", c.radius);
+        assert!(
+            (c.radius - truth.radius).abs() < 1e-3,
+            "radius {}",
+            c.radius
+        );
         assert!(geom::dist(c.center, truth.center) < 2e-3);
         // The gradient of the geometric cost vanishes at the optimum: Σ residuals = 0.
-        let sum: f64 = pts.iter().map(|&p| geom::dist(p, c.center) - c.radius).sum();
+        let sum: f64 = pts
+            .iter()
+            .map(|&p| geom::dist(p, c.center) - c.radius)
+            .sum();
         assert!(sum.abs() < 1e-9, "{sum}");
         assert!(Circle::fit(&[[0.0, 0.0], [1.0, 1.0], [2.0, 2.0], [3.0, 3.0]]).is_none());
     }
 
     #[test]
     fn intersections_lie_on_both_curves() {
-        let c = Circle { center: [1.0, 1.0], radius: 2.0 };
-        let l = Line { point: [0.0, 0.5], dir: [1.0, 0.0] };
+        let c = Circle {
+            center: [1.0, 1.0],
+            radius: 2.0,
+        };
+        let l = Line {
+            point: [0.0, 0.5],
+            dir: [1.0, 0.0],
+        };
         let hits = c.intersect_line(&l);
         assert_eq!(hits.len(), 2);
         for h in hits {
             assert!(c.distance(h) < 1e-12 && l.distance(h) < 1e-12);
         }
-        let d = Circle { center: [2.5, 1.0], radius: 1.0 };
+        let d = Circle {
+            center: [2.5, 1.0],
+            radius: 1.0,
+        };
         for h in c.intersect_circle(&d) {
             assert!(c.distance(h) < 1e-12 && d.distance(h) < 1e-12);
         }
-        assert!(c.intersect_line(&Line { point: [0.0, 5.0], dir: [1.0, 0.0] }).is_empty());
+        assert!(c
+            .intersect_line(&Line {
+                point: [0.0, 5.0],
+                dir: [1.0, 0.0]
+            })
+            .is_empty());
     }
 }

@@ -122,8 +122,14 @@ mod tests {
         a[45..].fill(Some(1));
         assert_eq!(reset_small_components(&s, &mut a, 15), 3);
         assert!(a[40..43].iter().all(|x| x.is_none()));
-        let line = Model::Line(Line { point: [0.0, 0.0], dir: [1.0, 0.0] });
-        let far = Model::Line(Line { point: [0.0, 0.1], dir: [1.0, 0.0] });
+        let line = Model::Line(Line {
+            point: [0.0, 0.0],
+            dir: [1.0, 0.0],
+        });
+        let far = Model::Line(Line {
+            point: [0.0, 0.1],
+            dir: [1.0, 0.0],
+        });
         let grown = grow(&s, &[line, far], &mut a, 15);
         // Samples 20..=34 reach model 0 within 15 hops; 30..45 reach model 1, which is farther
         // away geometrically, so shared ones go to model 0. Sample 35..=44 reach only model 1.

@@ -17,9 +17,9 @@ impl Line {
             return None;
         }
         let n = points.len() as f64;
-        let c = points
-            .iter()
-            .fold([0.0, 0.0], |acc, &p| geom::add(acc, geom::scale(p, 1.0 / n)));
+        let c = points.iter().fold([0.0, 0.0], |acc, &p| {
+            geom::add(acc, geom::scale(p, 1.0 / n))
+        });
         let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
         for p in points {
             let d = geom::sub(*p, c);
@@ -84,10 +84,21 @@ mod tests {
 
     #[test]
     fn perpendicular_lines_meet_at_the_corner() {
-        let a = Line { point: [0.0, 0.0], dir: [1.0, 0.0] };
-        let b = Line { point: [4.0, 7.0], dir: [0.0, -1.0] };
+        let a = Line {
+            point: [0.0, 0.0],
+            dir: [1.0, 0.0],
+        };
+        let b = Line {
+            point: [4.0, 7.0],
+            dir: [0.0, -1.0],
+        };
         assert_eq!(a.intersect(&b), Some([4.0, 0.0]));
-        assert!(a.intersect(&Line { point: [0.0, 1.0], dir: [-1.0, 0.0] }).is_none());
+        assert!(a
+            .intersect(&Line {
+                point: [0.0, 1.0],
+                dir: [-1.0, 0.0]
+            })
+            .is_none());
         assert_eq!(a.project([2.0, 5.0]), [2.0, 0.0]);
     }
 }

@@ -149,7 +149,10 @@ pub fn fit_walls(
     let mut exterior_of: Vec<Option<usize>> = Vec::new();
     for poly in &boundary.polygons {
         let ext = rings.len();
-        for (j, ring) in std::iter::once(&poly.exterior).chain(&poly.holes).enumerate() {
+        for (j, ring) in std::iter::once(&poly.exterior)
+            .chain(&poly.holes)
+            .enumerate()
+        {
             let ids: Vec<usize> = ring
                 .vertices
                 .iter()

@@ -262,14 +262,20 @@ mod tests {
         let Model::Circle(circle) = c.models[0] else {
             panic!("expected a circle, got {:?}", c.models[0]);
         };
-        assert!((circle.radius - 5.0).abs() / 5.0 < 0.005, "radius {}", circle.radius);
+        assert!(
+            (circle.radius - 5.0).abs() / 5.0 < 0.005,
+            "radius {}",
+            circle.radius
+        );
         assert!(geom::dist(circle.center, [1.0, -2.0]) < 0.01);
         assert_eq!(c.assigned.iter().filter(|a| a.is_some()).count(), n);
     }
 
     #[test]
     fn collinear_and_duplicate_samples_give_one_line() {
-        let mut pos: Vec<P2> = (0..40).map(|i| [0.05 * i as f64, 0.02 * i as f64]).collect();
+        let mut pos: Vec<P2> = (0..40)
+            .map(|i| [0.05 * i as f64, 0.02 * i as f64])
+            .collect();
         pos.extend(pos.clone());
         let normal = vec![geom::normalize([-0.02, 0.05]); pos.len()];
         let s = loop_samples(pos, normal);

@@ -101,7 +101,9 @@ pub fn rebuild_ring(
         };
         // A whole ring on one circle: a round column or room, traced in the ring's direction.
         let sweep = TAU * geom::ring_signed_area(pos).signum();
-        let steps = (TAU / arc_step(c.radius, params.arc_chord_error)).ceil().max(8.0) as usize;
+        let steps = (TAU / arc_step(c.radius, params.arc_chord_error))
+            .ceil()
+            .max(8.0) as usize;
         let a0 = c.angle(pos[0]);
         let mut points: Vec<P2> = (0..=steps)
             .map(|i| c.at(a0 + sweep * i as f64 / steps as f64))
@@ -215,12 +217,28 @@ mod tests {
     #[test]
     fn cut_corner_becomes_sharp() {
         // Samples along y = 0 then x = 1, the corner itself unsampled.
-        let pos = vec![[0.0, 0.0], [0.5, 0.0], [0.9, 0.0], [1.0, 0.1], [1.0, 0.5], [1.0, 1.0]];
-        let a = Model::Line(Line { point: [0.0, 0.0], dir: [1.0, 0.0] });
-        let b = Model::Line(Line { point: [1.0, 0.0], dir: [0.0, 1.0] });
+        let pos = vec![
+            [0.0, 0.0],
+            [0.5, 0.0],
+            [0.9, 0.0],
+            [1.0, 0.1],
+            [1.0, 0.5],
+            [1.0, 1.0],
+        ];
+        let a = Model::Line(Line {
+            point: [0.0, 0.0],
+            dir: [1.0, 0.0],
+        });
+        let b = Model::Line(Line {
+            point: [1.0, 0.0],
+            dir: [0.0, 1.0],
+        });
         let assigned = [Some(0), Some(0), Some(0), Some(1), Some(1), None];
         let r = rebuild_ring(&pos, &assigned, &[a, b], &FittingParams::default());
-        assert_eq!(r.points, vec![[0.0, 0.0], [1.0, 0.0], [1.0, 0.5], [1.0, 1.0]]);
+        assert_eq!(
+            r.points,
+            vec![[0.0, 0.0], [1.0, 0.0], [1.0, 0.5], [1.0, 1.0]]
+        );
         assert_eq!(r.walls.len(), 2);
         assert_eq!(r.walls[0].points, vec![[0.0, 0.0], [1.0, 0.0]]);
         assert_eq!(r.walls[1].points, vec![[1.0, 0.0], [1.0, 0.5]]);
@@ -229,7 +247,10 @@ mod tests {
 
     #[test]
     fn arc_is_densified_within_the_chord_error() {
-        let c = Circle { center: [0.0, 0.0], radius: 5.0 };
+        let c = Circle {
+            center: [0.0, 0.0],
+            radius: 5.0,
+        };
         let pts = arc_points(&c, [5.0, 0.0], &[[0.0, 5.0]], [-5.0, 0.0], 0.01);
         for w in pts.windows(2) {
             let mid = geom::scale(geom::add(w[0], w[1]), 0.5);

@@ -35,14 +35,23 @@ fn on_segment(a: P2, b: P2, p: P2) -> bool {
 /// True when segments a–b and c–d intersect other than at an endpoint they share exactly
 /// (allowed only when `may_touch`), or overlap along a stretch.
 pub fn segments_conflict(a: P2, b: P2, c: P2, d: P2, may_touch: bool) -> bool {
-    let (o1, o2, o3, o4) = (orient(a, b, c), orient(a, b, d), orient(c, d, a), orient(c, d, b));
+    let (o1, o2, o3, o4) = (
+        orient(a, b, c),
+        orient(a, b, d),
+        orient(c, d, a),
+        orient(c, d, b),
+    );
     if o1 * o2 < 0.0 && o3 * o4 < 0.0 {
         return true;
     }
     if o1 == 0.0 && o2 == 0.0 {
         // Collinear: conflict when the overlap is longer than a point, or is a point that is not
         // a permitted shared endpoint.
-        let axis = if (a[0] - b[0]).abs() >= (a[1] - b[1]).abs() { 0 } else { 1 };
+        let axis = if (a[0] - b[0]).abs() >= (a[1] - b[1]).abs() {
+            0
+        } else {
+            1
+        };
         let lo = a[axis].min(b[axis]).max(c[axis].min(d[axis]));
         let hi = a[axis].max(b[axis]).min(c[axis].max(d[axis]));
         if lo > hi {
@@ -75,7 +84,8 @@ fn point_in_ring(p: P2, ring: &[P2]) -> Option<bool> {
         if orient(a, b, p) == 0.0 && on_segment(a, b, p) {
             return None;
         }
-        if (a[1] > p[1]) != (b[1] > p[1]) && p[0] < a[0] + (p[1] - a[1]) * (b[0] - a[0]) / (b[1] - a[1])
+        if (a[1] > p[1]) != (b[1] > p[1])
+            && p[0] < a[0] + (p[1] - a[1]) * (b[0] - a[0]) / (b[1] - a[1])
         {
             inside = !inside;
         }
@@ -151,13 +161,19 @@ pub fn problems(rings: &[Vec<P2>], exterior_of: &[Option<usize>]) -> Vec<Problem
     }
     for (h, ext) in exterior_of.iter().enumerate() {
         let Some(e) = *ext else { continue };
-        if out.iter().any(|p| matches!(p, Problem::BadRing(r) if *r == h || *r == e)) {
+        if out
+            .iter()
+            .any(|p| matches!(p, Problem::BadRing(r) if *r == h || *r == e))
+        {
             continue;
         }
         // Holes may touch their exterior at vertices: judge by the first point off it.
         let verdict = rings[h].iter().find_map(|&p| point_in_ring(p, &rings[e]));
         if verdict == Some(false) {
-            out.push(Problem::HoleOutside { hole: h, exterior: e });
+            out.push(Problem::HoleOutside {
+                hole: h,
+                exterior: e,
+            });
         }
     }
     out.sort_by_key(|p| format!("{p:?}"));
@@ -196,11 +212,17 @@ mod tests {
         let out_hole = vec![[5.0, 1.0], [5.0, 2.0], [6.0, 2.0], [6.0, 1.0]];
         assert_eq!(
             problems(&[sq.clone(), out_hole], &[None, Some(0)]),
-            vec![Problem::HoleOutside { hole: 1, exterior: 0 }]
+            vec![Problem::HoleOutside {
+                hole: 1,
+                exterior: 0
+            }]
         );
         let mut ccw_hole = hole.clone();
         ccw_hole.reverse();
-        assert_eq!(problems(&[sq.clone(), ccw_hole], &[None, Some(0)]), vec![Problem::BadRing(1)]);
+        assert_eq!(
+            problems(&[sq.clone(), ccw_hole], &[None, Some(0)]),
+            vec![Problem::BadRing(1)]
+        );
         let crossing = vec![[3.0, 1.0], [3.0, 2.0], [5.0, 2.0], [5.0, 1.0]];
         assert_eq!(problems(&[sq, crossing], &[None, Some(0)]).len(), 2);
     }
