@@ -1,9 +1,25 @@
 //! Stage 6 (§3.5): RANSAC lines and circles fitted to the boundary samples, and the boundary
 //! rebuilt from the models with sharp corners.
+//!
+//! The steps: [`ransac`] finds the models, [`grow`] resets small components and grows models
+//! along the boundary, [`rebuild`] replaces each ring's runs with edges on their models, and
+//! [`simple`] checks that the result is valid. Where rebuilt edges cross, the models involved
+//! are undone locally (the traced boundary is kept there) and the repair is noted.
+
+pub mod circle;
+pub mod grow;
+pub mod line;
+pub mod model;
+pub mod ransac;
+pub mod rebuild;
+pub mod simple;
+
+use std::collections::HashMap;
 
 use serde::{Deserialize, Serialize};
 
 use crate::boundary::Boundary;
+use crate::geom::{self, P2};
 use crate::labeling::LabeledMesh;
 use crate::plan::{Polygon, Wall};
 
@@ -21,12 +37,18 @@ pub struct FittingParams {
     pub min_component: usize,
     /// Unassigned samples within this many boundary hops join the nearest model (§3.5: 15).
     pub grow_hops: usize,
-    /// RANSAC iterations per model search.
+    /// RANSAC iterations per model search (an upper bound; the search stops early once the
+    /// best model is found with 99% confidence).
     pub iterations: usize,
     /// Fit circles as well as lines (§3.5).
     pub circles: bool,
     /// Circles larger than this are treated as lines, metres.
     pub max_radius: f64,
+    /// Two neighbouring models meet at their intersection only when it lies within this
+    /// distance of both runs' end samples, metres (§3.5 "sharp corners"; the limit is ours).
+    pub max_corner_distance: f64,
+    /// Arcs are densified so that chords stray at most this far from the circle, metres.
+    pub arc_chord_error: f64,
     /// Random seed, so that runs repeat exactly.
     pub seed: u64,
 }
@@ -42,6 +64,8 @@ impl Default for FittingParams {
             iterations: 500,
             circles: true,
             max_radius: 30.0,
+            max_corner_distance: 0.5,
+            arc_chord_error: 0.01,
             seed: 1,
         }
     }
@@ -52,6 +76,8 @@ impl Default for FittingParams {
 pub struct FittedStory {
     pub polygons: Vec<Polygon>,
     pub walls: Vec<Wall>,
+    /// Repairs worth telling the user about (models undone where rebuilt edges crossed).
+    pub notes: Vec<String>,
 }
 
 /// Why fitting failed.
@@ -63,30 +89,203 @@ pub enum FittingError {
     Invalid(String),
 }
 
+/// The boundary vertices RANSAC works on, with the boundary edges between them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BoundarySamples {
+    pub pos: Vec<P2>,
+    /// Unit normal, when the sample has one.
+    pub normal: Vec<Option<P2>>,
+    /// Neighbours along the boundary rings.
+    pub adj: Vec<Vec<u32>>,
+}
+
+fn check_params(p: &FittingParams) -> Result<(), FittingError> {
+    let bad = |name, why: &str| {
+        Err(FittingError::BadParam {
+            name,
+            why: why.into(),
+        })
+    };
+    if !(p.inlier_distance.is_finite() && p.inlier_distance > 0.0) {
+        return bad("inlier_distance", "must be a positive number of metres");
+    }
+    if !(p.inlier_angle > 0.0 && p.inlier_angle <= std::f64::consts::FRAC_PI_2) {
+        return bad("inlier_angle", "must be in (0, π/2] radians");
+    }
+    if p.min_inliers < 3 {
+        return bad("min_inliers", "must be at least 3");
+    }
+    if p.iterations == 0 {
+        return bad("iterations", "must be at least 1");
+    }
+    if p.max_radius.is_nan() || p.max_radius <= 0.0 {
+        return bad("max_radius", "must be positive");
+    }
+    if p.max_corner_distance.is_nan() || p.max_corner_distance < 0.0 {
+        return bad("max_corner_distance", "must not be negative");
+    }
+    if !(p.arc_chord_error.is_finite() && p.arc_chord_error > 0.0) {
+        return bad("arc_chord_error", "must be a positive number of metres");
+    }
+    Ok(())
+}
+
 /// Fits lines and circles to the boundary and rebuilds it on the models.
 pub fn fit_walls(
     labeled: &LabeledMesh,
     boundary: &Boundary,
     params: &FittingParams,
 ) -> Result<FittedStory, FittingError> {
-    let _ = params;
-    // Without models the boundary itself is the plan.
-    let ring = |r: &crate::boundary::Ring| {
-        r.vertices
-            .iter()
-            .map(|&v| labeled.mesh.vertices[v as usize])
-            .collect()
+    check_params(params)?;
+    let mesh = &labeled.mesh;
+    // Rings as sample indices; `exterior_of[r]` names a hole's exterior ring.
+    let mut index: HashMap<u32, usize> = HashMap::new();
+    let mut samples = BoundarySamples {
+        pos: Vec::new(),
+        normal: Vec::new(),
+        adj: Vec::new(),
     };
-    let polygons = boundary
-        .polygons
+    let mut rings: Vec<Vec<usize>> = Vec::new();
+    let mut exterior_of: Vec<Option<usize>> = Vec::new();
+    for poly in &boundary.polygons {
+        let ext = rings.len();
+        for (j, ring) in std::iter::once(&poly.exterior)
+            .chain(&poly.holes)
+            .enumerate()
+        {
+            let ids: Vec<usize> = ring
+                .vertices
+                .iter()
+                .map(|&v| {
+                    *index.entry(v).or_insert_with(|| {
+                        let p = mesh.vertices.get(v as usize).copied().unwrap_or([0.0; 2]);
+                        let is_sample = (v as usize) < mesh.n_samples;
+                        let n = mesh.normals.get(v as usize).copied();
+                        samples.pos.push(p);
+                        samples
+                            .normal
+                            .push(n.filter(|_| is_sample).and_then(geom::normalize));
+                        samples.adj.push(Vec::new());
+                        samples.pos.len() - 1
+                    })
+                })
+                .collect();
+            for w in 0..ids.len() {
+                let (a, b) = (ids[w], ids[(w + 1) % ids.len()]);
+                if a != b && !samples.adj[a].contains(&(b as u32)) {
+                    samples.adj[a].push(b as u32);
+                    samples.adj[b].push(a as u32);
+                }
+            }
+            rings.push(ids);
+            exterior_of.push((j > 0).then_some(ext));
+        }
+    }
+    let consensus = ransac::find_models(&samples, params);
+    let models = consensus.models;
+    let mut assigned = consensus.assigned;
+    grow::reset_small_components(&samples, &mut assigned, params.min_component);
+    grow::grow(&samples, &models, &mut assigned, params.grow_hops);
+
+    let ring_pos: Vec<Vec<P2>> = rings
         .iter()
-        .map(|p| Polygon {
-            exterior: ring(&p.exterior),
-            holes: p.holes.iter().map(ring).collect(),
-        })
+        .map(|r| r.iter().map(|&s| samples.pos[s]).collect())
         .collect();
+    // Per ring, so that a repair undoes a model only where it went wrong.
+    let mut ring_assign: Vec<Vec<Option<usize>>> = rings
+        .iter()
+        .map(|r| r.iter().map(|&s| assigned[s]).collect())
+        .collect();
+    let mut undone: Vec<P2> = Vec::new();
+    let rebuilt = loop {
+        let rebuilt: Vec<rebuild::Rebuilt> = ring_pos
+            .iter()
+            .zip(&ring_assign)
+            .map(|(pos, a)| rebuild::rebuild_ring(pos, a, &models, params))
+            .collect();
+        let points: Vec<Vec<P2>> = rebuilt.iter().map(|r| r.points.clone()).collect();
+        let problems = simple::problems(&points, &exterior_of);
+        if problems.is_empty() {
+            break rebuilt;
+        }
+        let mut to_undo: Vec<(usize, usize)> = Vec::new();
+        for p in &problems {
+            match *p {
+                simple::Problem::Crossing(s, t) => {
+                    for (r, i) in [s, t] {
+                        let of = &rebuilt[r].piece_of_point;
+                        to_undo.push((r, of[i]));
+                        to_undo.push((r, of[(i + 1) % of.len()]));
+                    }
+                }
+                simple::Problem::BadRing(r) => {
+                    to_undo.extend((0..rebuilt[r].pieces.len()).map(|k| (r, k)));
+                }
+                simple::Problem::HoleOutside { hole, exterior } => {
+                    for r in [hole, exterior] {
+                        to_undo.extend((0..rebuilt[r].pieces.len()).map(|k| (r, k)));
+                    }
+                }
+            }
+        }
+        to_undo.sort_unstable();
+        to_undo.dedup();
+        let before = undone.len();
+        for (r, k) in to_undo {
+            let piece = &rebuilt[r].pieces[k];
+            if piece.model.is_none() {
+                continue;
+            }
+            for &i in &piece.positions {
+                ring_assign[r][i] = None;
+            }
+            let n = piece.positions.len() as f64;
+            undone.push(piece.positions.iter().fold([0.0, 0.0], |acc, &i| {
+                geom::add(acc, geom::scale(ring_pos[r][i], 1.0 / n))
+            }));
+        }
+        if undone.len() == before {
+            return Err(FittingError::Invalid(format!(
+                "the traced boundary itself is not valid: {:?}",
+                problems[0]
+            )));
+        }
+    };
+    let mut notes = Vec::new();
+    if !undone.is_empty() {
+        let at: Vec<String> = undone
+            .iter()
+            .take(5)
+            .map(|p| format!("({:.2}, {:.2})", p[0], p[1]))
+            .collect();
+        notes.push(format!(
+            "fitting: {} wall piece(s) kept as traced because their rebuilt edges crossed, near local {}{}",
+            undone.len(),
+            at.join(", "),
+            if undone.len() > 5 { ", …" } else { "" }
+        ));
+    }
+    let mut polygons = Vec::new();
+    for (r, ext) in exterior_of.iter().enumerate() {
+        match ext {
+            None => polygons.push(Polygon {
+                exterior: rebuilt[r].points.clone(),
+                holes: Vec::new(),
+            }),
+            Some(_) => {
+                if let Some(p) = polygons.last_mut() {
+                    p.holes.push(rebuilt[r].points.clone());
+                }
+            }
+        }
+    }
+    let walls = rebuilt.into_iter().flat_map(|r| r.walls).collect();
     Ok(FittedStory {
         polygons,
-        walls: Vec::new(),
+        walls,
+        notes,
     })
 }
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,140 @@
+//! Topological clean-up of the RANSAC assignment (§3.5): components of a model along the
+//! boundary with too few samples are reset, and unassigned samples join a model that is
+//! reachable within a few boundary hops.
+
+use crate::cleanup::UnionFind;
+use crate::fitting::model::Model;
+use crate::fitting::BoundarySamples;
+
+/// Unassigns every boundary-connected component of a model with fewer than `min_component`
+/// samples. Returns how many samples were reset.
+pub fn reset_small_components(
+    samples: &BoundarySamples,
+    assigned: &mut [Option<usize>],
+    min_component: usize,
+) -> usize {
+    let n = samples.pos.len();
+    let mut uf = UnionFind::new(n);
+    for v in 0..n {
+        for &w in &samples.adj[v] {
+            if assigned[v].is_some() && assigned[v] == assigned[w as usize] {
+                uf.union(v as u32, w);
+            }
+        }
+    }
+    let root: Vec<u32> = (0..n as u32).map(|v| uf.find(v)).collect();
+    let mut size = vec![0usize; n];
+    for &r in &root {
+        size[r as usize] += 1;
+    }
+    let mut reset = 0;
+    for v in 0..n {
+        if assigned[v].is_some() && size[root[v] as usize] < min_component {
+            assigned[v] = None;
+            reset += 1;
+        }
+    }
+    reset
+}
+
+/// Gives each unassigned sample the nearest model (by distance to the model, then by hops)
+/// among those owning a sample within `hops` boundary edges. Decisions are taken on the
+/// assignment as it was before growing, so the result does not depend on sample order.
+/// Returns how many samples joined a model.
+pub fn grow(
+    samples: &BoundarySamples,
+    models: &[Model],
+    assigned: &mut [Option<usize>],
+    hops: usize,
+) -> usize {
+    let before = assigned.to_vec();
+    let mut grown = 0;
+    for v in 0..samples.pos.len() {
+        if before[v].is_some() {
+            continue;
+        }
+        let mut seen = vec![v];
+        let mut frontier = vec![v];
+        let mut best: Option<(f64, usize, usize)> = None;
+        for hop in 1..=hops {
+            let mut next = Vec::new();
+            for &u in &frontier {
+                for &w in &samples.adj[u] {
+                    let w = w as usize;
+                    if seen.contains(&w) {
+                        continue;
+                    }
+                    seen.push(w);
+                    next.push(w);
+                    if let Some(m) = before[w] {
+                        let d = models[m].distance(samples.pos[v]);
+                        let key = (d, hop, m);
+                        if best.is_none_or(|b| key < b) {
+                            best = Some(key);
+                        }
+                    }
+                }
+            }
+            if next.is_empty() {
+                break;
+            }
+            frontier = next;
+        }
+        if let Some((_, _, m)) = best {
+            assigned[v] = Some(m);
+            grown += 1;
+        }
+    }
+    grown
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fitting::line::Line;
+
+    fn path(n: usize) -> BoundarySamples {
+        BoundarySamples {
+            pos: (0..n).map(|i| [0.05 * i as f64, 0.0]).collect(),
+            normal: vec![None; n],
+            adj: (0..n)
+                .map(|i| {
+                    let mut a = Vec::new();
+                    if i > 0 {
+                        a.push(i as u32 - 1);
+                    }
+                    if i + 1 < n {
+                        a.push(i as u32 + 1);
+                    }
+                    a
+                })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn small_components_reset_and_gaps_grow() {
+        let s = path(60);
+        // Model 0 owns 0..20 and a stray 3-sample piece at 40..43; model 1 owns 45..60.
+        let mut a: Vec<Option<usize>> = vec![None; 60];
+        a[..20].fill(Some(0));
+        a[40..43].fill(Some(0));
+        a[45..].fill(Some(1));
+        assert_eq!(reset_small_components(&s, &mut a, 15), 3);
+        assert!(a[40..43].iter().all(|x| x.is_none()));
+        let line = Model::Line(Line {
+            point: [0.0, 0.0],
+            dir: [1.0, 0.0],
+        });
+        let far = Model::Line(Line {
+            point: [0.0, 0.1],
+            dir: [1.0, 0.0],
+        });
+        let grown = grow(&s, &[line, far], &mut a, 15);
+        // Samples 20..=34 reach model 0 within 15 hops; 30..45 reach model 1, which is farther
+        // away geometrically, so shared ones go to model 0. Sample 35..=44 reach only model 1.
+        assert_eq!(grown, 25);
+        assert!(a[20..35].iter().all(|x| *x == Some(0)));
+        assert!(a[35..45].iter().all(|x| *x == Some(1)));
+    }
+}

@@ -1,0 +1,311 @@
+//! End-to-end tests of the fitting stage on hand-built labelings.
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+
+use super::*;
+use crate::boundary::trace_boundary;
+use crate::cleanup::tests::{label_by_rings, ring_samples};
+use crate::cleanup::{clean_labels, CleanupParams};
+use crate::labeling::Mesh;
+use crate::plan::WallModel;
+
+/// Samples the true rings every 5 cm (plus Gaussian noise of `sigma` metres), triangulates,
+/// labels by centroid, cleans, traces, checks watertightness and fits.
+fn fit(truth: &[Vec<P2>], sigma: f64, params: &FittingParams) -> (LabeledMesh, FittedStory) {
+    fit_seeded(truth, sigma, params, 7)
+}
+
+fn fit_seeded(
+    truth: &[Vec<P2>],
+    sigma: f64,
+    params: &FittingParams,
+    seed: u64,
+) -> (LabeledMesh, FittedStory) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let noise = Normal::new(0.0, sigma.max(1e-300)).unwrap();
+    let (mut pts, mut normals) = (Vec::new(), Vec::new());
+    for ring in truth {
+        let (p, n) = ring_samples(ring, 0.05);
+        pts.extend(p.into_iter().map(|q| {
+            if sigma > 0.0 {
+                [q[0] + noise.sample(&mut rng), q[1] + noise.sample(&mut rng)]
+            } else {
+                q
+            }
+        }));
+        normals.extend(n);
+    }
+    let mut l = label_by_rings(Mesh::build(&pts, &normals).unwrap(), truth);
+    clean_labels(&mut l, &CleanupParams::default());
+    let b = trace_boundary(&l).unwrap();
+    b.check(&l).unwrap();
+    let f = fit_walls(&l, &b, params).unwrap();
+    assert_valid(&f);
+    (l, f)
+}
+
+/// The fitted polygons pass the validity test.
+fn assert_valid(f: &FittedStory) {
+    let mut rings = Vec::new();
+    let mut ext = Vec::new();
+    for p in &f.polygons {
+        let e = rings.len();
+        rings.push(p.exterior.clone());
+        ext.push(None);
+        for h in &p.holes {
+            rings.push(h.clone());
+            ext.push(Some(e));
+        }
+    }
+    let problems = simple::problems(&rings, &ext);
+    assert!(problems.is_empty(), "{problems:?}");
+}
+
+/// Largest distance from a true corner to the nearest vertex of `ring`.
+fn corner_error(truth: &[P2], ring: &[P2]) -> f64 {
+    truth
+        .iter()
+        .map(|c| {
+            ring.iter()
+                .map(|p| geom::dist(*p, *c))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max)
+}
+
+fn room() -> Vec<P2> {
+    vec![[0.0, 0.0], [4.0, 0.0], [4.0, 3.0], [0.0, 3.0]]
+}
+
+#[test]
+fn room_gives_four_line_walls_with_exact_corners() {
+    let (_, f) = fit(&[room()], 0.0, &FittingParams::default());
+    assert_eq!(f.polygons.len(), 1);
+    let ext = &f.polygons[0].exterior;
+    assert_eq!(ext.len(), 4, "{ext:?}");
+    let err = corner_error(&room(), ext);
+    assert!(err < 1e-3, "corner error {err}");
+    assert!((geom::ring_signed_area(ext) - 12.0).abs() < 1e-2);
+    assert_eq!(f.walls.len(), 4);
+    assert!(f.walls.iter().all(|w| w.model == WallModel::Line));
+    let total: f64 = f.walls.iter().map(Wall::length).sum();
+    assert!((total - 14.0).abs() < 4e-3, "wall length {total}");
+    assert!(f.notes.is_empty());
+}
+
+#[test]
+fn noisy_room_corners_within_a_centimetre() {
+    let (_, f) = fit(&[room()], 0.005, &FittingParams::default());
+    let ext = &f.polygons[0].exterior;
+    assert_eq!(ext.len(), 4, "{ext:?}");
+    let err = corner_error(&room(), ext);
+    eprintln!(
+        "noisy room (σ = 5 mm): max corner error {:.2} mm",
+        err * 1e3
+    );
+    assert!(err < 0.01, "corner error {err}");
+}
+
+#[test]
+fn l_shape_gives_six_walls_with_exact_corners() {
+    let l_shape = vec![
+        [0.0, 0.0],
+        [5.0, 0.0],
+        [5.0, 2.0],
+        [2.0, 2.0],
+        [2.0, 4.0],
+        [0.0, 4.0],
+    ];
+    let (_, f) = fit(
+        std::slice::from_ref(&l_shape),
+        0.0,
+        &FittingParams::default(),
+    );
+    let ext = &f.polygons[0].exterior;
+    assert_eq!(ext.len(), 6, "{ext:?}");
+    assert!(corner_error(&l_shape, ext) < 1e-3);
+    assert_eq!(f.walls.len(), 6);
+    assert!((geom::ring_signed_area(ext) - 14.0).abs() < 1e-2);
+}
+
+#[test]
+fn room_with_a_column_keeps_its_hole() {
+    let column = vec![[1.5, 1.0], [1.5, 2.0], [2.5, 2.0], [2.5, 1.0]];
+    let (_, f) = fit(&[room(), column.clone()], 0.0, &FittingParams::default());
+    assert_eq!(f.polygons.len(), 1);
+    let p = &f.polygons[0];
+    assert_eq!(p.holes.len(), 1);
+    assert_eq!(p.holes[0].len(), 4, "{:?}", p.holes[0]);
+    assert!(corner_error(&column, &p.holes[0]) < 1e-3);
+    assert!(geom::ring_signed_area(&p.holes[0]) < 0.0);
+    assert_eq!(f.walls.len(), 8);
+}
+
+#[test]
+fn round_room_becomes_one_arc_within_half_a_percent() {
+    let (r, c) = (5.0, [1.0, 2.0]);
+    let circle: Vec<P2> = (0..628)
+        .map(|i| {
+            let a = i as f64 * std::f64::consts::TAU / 628.0;
+            [c[0] + r * a.cos(), c[1] + r * a.sin()]
+        })
+        .collect();
+    let (_, f) = fit(&[circle], 0.003, &FittingParams::default());
+    assert_eq!(
+        f.walls.len(),
+        1,
+        "{:?}",
+        f.walls.iter().map(|w| w.model).collect::<Vec<_>>()
+    );
+    let WallModel::Arc { center, radius } = f.walls[0].model else {
+        panic!("expected an arc");
+    };
+    let rel = (radius - r).abs() / r;
+    eprintln!(
+        "round room r = 5 m (σ = 3 mm): radius error {:.3}%, centre error {:.2} mm",
+        rel * 100.0,
+        geom::dist(center, c) * 1e3
+    );
+    assert!(rel < 0.005, "radius {radius}");
+    assert!(geom::dist(center, c) < 0.01);
+    // Densified to 1 cm chord error: every vertex on the circle, every chord midpoint within 1 cm.
+    let ext = &f.polygons[0].exterior;
+    for (i, p) in ext.iter().enumerate() {
+        assert!((geom::dist(*p, center) - radius).abs() < 1e-9);
+        let q = ext[(i + 1) % ext.len()];
+        let mid = geom::scale(geom::add(*p, q), 0.5);
+        assert!(radius - geom::dist(mid, center) <= 0.01 + 1e-9);
+    }
+}
+
+#[test]
+fn rooms_sharing_a_wall_line_are_repaired_not_failed() {
+    // Two rooms 2 cm apart: both facing walls fall on one model, and rebuilding both rings on it
+    // would make them overlap. The repair keeps the traced boundary there and says so.
+    let a = room();
+    let b = vec![[4.02, 0.0], [8.02, 0.0], [8.02, 3.0], [4.02, 3.0]];
+    let (_, f) = fit(&[a, b], 0.0, &FittingParams::default());
+    assert_eq!(f.polygons.len(), 2);
+    assert_eq!(f.notes.len(), 1, "{:?}", f.notes);
+    assert!(f.notes[0].contains("kept as traced"));
+}
+
+#[test]
+fn bad_params_and_empty_boundary() {
+    let (l, _) = fit(&[room()], 0.0, &FittingParams::default());
+    let b = trace_boundary(&l).unwrap();
+    let mut p = FittingParams::default();
+    p.inlier_distance = f64::NAN;
+    assert!(matches!(
+        fit_walls(&l, &b, &p),
+        Err(FittingError::BadParam {
+            name: "inlier_distance",
+            ..
+        })
+    ));
+    let mut p = FittingParams::default();
+    p.min_inliers = 1;
+    assert!(fit_walls(&l, &b, &p).is_err());
+    let empty = fit_walls(&l, &Boundary::default(), &FittingParams::default()).unwrap();
+    assert!(empty.polygons.is_empty() && empty.walls.is_empty());
+}
+
+#[test]
+fn fitting_repeats_exactly() {
+    let (l, f) = fit(&[room()], 0.005, &FittingParams::default());
+    let b = trace_boundary(&l).unwrap();
+    assert_eq!(fit_walls(&l, &b, &FittingParams::default()).unwrap(), f);
+}
+
+/// `n` points of a circle (or an arc from `a0` sweeping `sweep`), as a polygon.
+fn arc(c: P2, r: f64, a0: f64, sweep: f64, n: usize) -> Vec<P2> {
+    (0..n)
+        .map(|i| {
+            let a = a0 + sweep * i as f64 / n as f64;
+            [c[0] + r * a.cos(), c[1] + r * a.sin()]
+        })
+        .collect()
+}
+
+#[test]
+fn apse_room_with_round_column_under_noise() {
+    use std::f64::consts::PI;
+    // A 6 × 4 m room whose right side is a half circle of radius 2 about (6, 2), with a round
+    // column of radius 0.4 at (2.5, 2).
+    let mut outer = vec![[0.0, 0.0], [6.0, 0.0]];
+    outer.extend(arc([6.0, 2.0], 2.0, -PI / 2.0, PI, 200).into_iter().skip(1));
+    outer.push([6.0, 4.0]);
+    outer.push([0.0, 4.0]);
+    let mut column = arc([2.5, 2.0], 0.4, 0.0, -2.0 * PI, 60);
+    column.rotate_left(1);
+    let truth = [outer, column];
+    let mut worst_radius = [0.0f64; 2];
+    for (seed, sigma) in [(1, 0.0), (2, 0.003), (3, 0.005), (4, 0.01)] {
+        let (_, f) = fit_seeded(&truth, sigma, &FittingParams::default(), seed);
+        assert_eq!(f.polygons.len(), 1);
+        assert_eq!(f.polygons[0].holes.len(), 1, "column lost at σ = {sigma}");
+        let arcs: Vec<(P2, f64)> = f
+            .walls
+            .iter()
+            .filter_map(|w| match w.model {
+                WallModel::Arc { center, radius } => Some((center, radius)),
+                WallModel::Line => None,
+            })
+            .collect();
+        for (k, (c, r)) in [([6.0, 2.0], 2.0), ([2.5, 2.0], 0.4)]
+            .into_iter()
+            .enumerate()
+        {
+            let found = arcs
+                .iter()
+                .find(|(cc, _)| geom::dist(*cc, c) < 0.05)
+                .unwrap_or_else(|| panic!("σ = {sigma}: no arc about {c:?} in {arcs:?}"));
+            let rel = (found.1 - r).abs() / r;
+            worst_radius[k] = worst_radius[k].max(rel);
+            assert!(rel < 0.02, "σ = {sigma}: radius {} for {r}", found.1);
+        }
+        let lines = f
+            .walls
+            .iter()
+            .filter(|w| w.model == WallModel::Line)
+            .count();
+        assert!(lines >= 3, "σ = {sigma}: {lines} line walls");
+        let err = corner_error(&[[0.0, 0.0], [0.0, 4.0]], &f.polygons[0].exterior);
+        assert!(err < 0.01, "σ = {sigma}: corner error {err}");
+    }
+    eprintln!(
+        "apse r = 2 m worst radius error {:.3}%, column r = 0.4 m {:.3}% (σ up to 1 cm)",
+        worst_radius[0] * 100.0,
+        worst_radius[1] * 100.0
+    );
+}
+
+#[test]
+fn many_noisy_layouts_stay_valid() {
+    // Rooms side by side with 10 cm walls, doorless, under up to 2 cm noise: whatever the
+    // models do, the plan must come out valid (checked inside `fit`).
+    for seed in 0..6 {
+        let sigma = 0.004 * seed as f64;
+        let mut truth = Vec::new();
+        for i in 0..3 {
+            for j in 0..2 {
+                let (x, y) = (i as f64 * 3.1, j as f64 * 2.6);
+                truth.push(vec![[x, y], [x + 3.0, y], [x + 3.0, y + 2.5], [x, y + 2.5]]);
+            }
+        }
+        let (_, f) = fit_seeded(&truth, sigma, &FittingParams::default(), seed);
+        assert_eq!(f.polygons.len(), 6, "σ = {sigma}");
+        // Up to 1 cm the four walls are found (corners may keep a traced vertex or two).
+        if sigma <= 0.01 {
+            for p in &f.polygons {
+                assert!(
+                    p.exterior.len() <= 8,
+                    "σ = {sigma}: {} vertices",
+                    p.exterior.len()
+                );
+            }
+        }
+    }
+}
