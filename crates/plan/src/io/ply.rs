@@ -167,6 +167,7 @@ struct Header {
     len: u64,
     /// Header lines, so ASCII line numbers continue from here.
     lines: u64,
+    /// `comment` and `obj_info` lines, shown in the format details.
     comments: Vec<String>,
 }
 
@@ -842,12 +843,17 @@ fn describe(header: &Header, vertex: &Element) -> String {
             }
         })
         .collect();
-    format!(
+    let mut details = format!(
         "{} 1.0, {} vertices ({})",
         header.encoding.name(),
         vertex.count,
         props.join(", ")
-    )
+    );
+    if let Some(c) = header.comments.iter().find(|c| !c.is_empty()) {
+        let c: String = c.chars().take(80).collect();
+        details.push_str(&format!("; comment: {c}"));
+    }
+    details
 }
 
 fn scalar_name(s: Scalar) -> &'static str {
