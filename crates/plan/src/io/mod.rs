@@ -55,8 +55,22 @@ impl ReadError {
 
 /// Reads a point cloud, choosing the reader from the file's content.
 pub fn read_cloud(path: &Path) -> Result<PointCloud, ReadError> {
+    use std::io::Read;
+    let io = |source| ReadError::Io {
+        path: path.display().to_string(),
+        source,
+    };
+    let mut magic = Vec::with_capacity(4);
+    std::fs::File::open(path)
+        .map_err(io)?
+        .take(4)
+        .read_to_end(&mut magic)
+        .map_err(io)?;
+    if magic == b"ply\n" || magic == b"ply\r" {
+        return ply::read_ply(path);
+    }
     Err(ReadError::UnknownFormat {
         path: path.display().to_string(),
-        why: "no readers built yet".into(),
+        why: "only PLY is read so far".into(),
     })
 }

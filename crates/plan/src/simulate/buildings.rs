@@ -1,0 +1,506 @@
+//! The synthetic buildings: their walls, door lintels, columns and furniture as ray-castable
+//! surfaces, where the scanners stand, and the exact ground truth.
+
+use std::f64::consts::{PI, TAU};
+
+use super::rects::{group, outline, point_in_ring, Rect};
+use super::truth::{densify, rotate, TruthStory, TruthWall};
+use crate::geom::{add, P2};
+use crate::plan::Polygon;
+
+/// Door openings are this high; the wall above them (the lintel) reaches the ceiling.
+pub const DOOR_HEIGHT: f64 = 2.1;
+/// Tables and desks are this high: clutter that shadows the floor but is no wall.
+pub const TABLE_HEIGHT: f64 = 0.75;
+
+/// A vertical surface: a wall face, a lintel face, a column or a table side, between two heights.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Surface {
+    pub curve: TruthWall,
+    /// Absolute (building-frame) bottom and top heights.
+    pub z: [f64; 2],
+}
+
+/// A horizontal convex quadrilateral: a table top or the underside of a lintel.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Patch {
+    /// Corners in order (either winding).
+    pub corners: [P2; 4],
+    pub z: f64,
+}
+
+impl Patch {
+    fn from_rect(r: Rect, z: f64) -> Patch {
+        Patch {
+            corners: [[r.x0, r.y0], [r.x1, r.y0], [r.x1, r.y1], [r.x0, r.y1]],
+            z,
+        }
+    }
+
+    /// True when `p` is inside the quadrilateral.
+    pub fn contains(&self, p: P2) -> bool {
+        let c = &self.corners;
+        let side = |a: P2, b: P2| (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
+        let s: [f64; 4] = std::array::from_fn(|k| side(c[k], c[(k + 1) % 4]));
+        s.iter().all(|&v| v >= 0.0) || s.iter().all(|&v| v <= 0.0)
+    }
+}
+
+/// One story of a building: what rays can hit, where scanners go, and the truth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StoryModel {
+    pub floor_z: f64,
+    pub ceiling_z: f64,
+    pub surfaces: Vec<Surface>,
+    pub patches: Vec<Patch>,
+    /// Static scanner stations (x, y); the scanner head stands 1.5 m above the floor.
+    pub stations: Vec<P2>,
+    /// The mobile scanner's route, through door openings, starting and ending at the stairs.
+    pub route: Vec<P2>,
+    pub truth: TruthStory,
+}
+
+/// A building in its own frame (metres, z up).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Building {
+    pub name: String,
+    pub stories: Vec<StoryModel>,
+}
+
+/// The buildings the simulator knows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BuildingKind {
+    /// One 6 m × 5 m room, one story.
+    SquareRoom,
+    /// Three 3 m stories of a 30 m × 20 m office: rooms, a corridor looping around a core and
+    /// a meeting room, doors, a square and a round column, tables.
+    Office3Story,
+    /// A lobby: a rectangle closed by a half-circle wall of radius 10 m, with columns.
+    CurvedLobby,
+    /// Two rooms in an L, rotated 27° off the axes.
+    RotatedL,
+}
+
+impl BuildingKind {
+    /// Every building, by its command-line name.
+    pub const ALL: [(&'static str, BuildingKind); 4] = [
+        ("square_room", BuildingKind::SquareRoom),
+        ("office_3story", BuildingKind::Office3Story),
+        ("curved_lobby", BuildingKind::CurvedLobby),
+        ("rotated_l", BuildingKind::RotatedL),
+    ];
+
+    /// The building's name, as `asbuilt simulate --building` takes it.
+    pub fn name(self) -> &'static str {
+        BuildingKind::ALL
+            .iter()
+            .find(|(_, k)| *k == self)
+            .map(|(n, _)| *n)
+            .unwrap_or("?")
+    }
+
+    /// Looks a building up by name.
+    pub fn from_name(name: &str) -> Option<BuildingKind> {
+        BuildingKind::ALL
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, k)| *k)
+    }
+
+    /// Builds the building's geometry and ground truth.
+    pub fn build(self) -> Building {
+        let stories = match self {
+            BuildingKind::SquareRoom => vec![square_room()],
+            BuildingKind::Office3Story => (0..3).map(office_story).collect(),
+            BuildingKind::CurvedLobby => vec![curved_lobby()],
+            BuildingKind::RotatedL => vec![rotated_l()],
+        };
+        let mut stories = stories;
+        for (level, s) in stories.iter_mut().enumerate() {
+            s.truth.level = level;
+        }
+        Building {
+            name: self.name().into(),
+            stories,
+        }
+    }
+}
+
+/// A story described with rectangles, before it becomes surfaces.
+#[derive(Default)]
+struct RectStory {
+    floor_z: f64,
+    ceiling_z: f64,
+    open: Vec<Rect>,
+    doors: Vec<Rect>,
+    solid: Vec<Rect>,
+    round_columns: Vec<(P2, f64)>,
+    tables: Vec<Rect>,
+    stations: Vec<P2>,
+    route: Vec<P2>,
+}
+
+impl RectStory {
+    fn into_model(self) -> StoryModel {
+        let mut open = self.open.clone();
+        open.extend(&self.doors);
+        let mut polygons = outline(&open, &self.solid);
+        let mut walls: Vec<TruthWall> = polygons.iter().flat_map(polygon_walls).collect();
+        for &(center, radius) in &self.round_columns {
+            add_round_column(&mut polygons, &mut walls, center, radius);
+        }
+        let (f, c) = (self.floor_z, self.ceiling_z);
+        let mut surfaces: Vec<Surface> = walls
+            .iter()
+            .map(|&curve| Surface { curve, z: [f, c] })
+            .collect();
+        let mut patches = Vec::new();
+        for d in &self.doors {
+            // The lintel's two faces run along the door's long side, on the wall faces.
+            let faces = if d.x1 - d.x0 > d.y1 - d.y0 {
+                [[[d.x0, d.y0], [d.x1, d.y0]], [[d.x0, d.y1], [d.x1, d.y1]]]
+            } else {
+                [[[d.x0, d.y0], [d.x0, d.y1]], [[d.x1, d.y0], [d.x1, d.y1]]]
+            };
+            for [a, b] in faces {
+                surfaces.push(Surface {
+                    curve: TruthWall::Line { a, b },
+                    z: [f + DOOR_HEIGHT, c],
+                });
+            }
+            patches.push(Patch::from_rect(*d, f + DOOR_HEIGHT));
+        }
+        for t in &self.tables {
+            let corners = [[t.x0, t.y0], [t.x1, t.y0], [t.x1, t.y1], [t.x0, t.y1]];
+            for k in 0..4 {
+                surfaces.push(Surface {
+                    curve: TruthWall::Line {
+                        a: corners[k],
+                        b: corners[(k + 1) % 4],
+                    },
+                    z: [f, f + TABLE_HEIGHT],
+                });
+            }
+            patches.push(Patch::from_rect(*t, f + TABLE_HEIGHT));
+        }
+        StoryModel {
+            floor_z: f,
+            ceiling_z: c,
+            surfaces,
+            patches,
+            stations: self.stations,
+            route: self.route,
+            truth: TruthStory {
+                level: 0,
+                floor_z: f,
+                ceiling_z: c,
+                polygons,
+                walls,
+            },
+        }
+    }
+}
+
+/// Every ring edge of a polygon as a straight wall.
+fn polygon_walls(p: &Polygon) -> Vec<TruthWall> {
+    std::iter::once(&p.exterior)
+        .chain(&p.holes)
+        .flat_map(|ring| {
+            (0..ring.len()).map(move |k| TruthWall::Line {
+                a: ring[k],
+                b: ring[(k + 1) % ring.len()],
+            })
+        })
+        .collect()
+}
+
+/// Cuts a round column out of the polygon that contains it.
+fn add_round_column(polygons: &mut [Polygon], walls: &mut Vec<TruthWall>, center: P2, radius: f64) {
+    let arc = TruthWall::Arc {
+        center,
+        radius,
+        start: 0.0,
+        sweep: -TAU,
+    };
+    let mut ring = densify(&arc, 0.001);
+    ring.pop();
+    if let Some(p) = polygons
+        .iter_mut()
+        .find(|p| point_in_ring(center, &p.exterior))
+    {
+        p.holes.push(ring);
+    }
+    walls.push(TruthWall::Arc {
+        center,
+        radius,
+        start: 0.0,
+        sweep: TAU,
+    });
+}
+
+/// Rotates a story by `angle` about the origin, then moves it by `d`.
+fn transform(mut s: StoryModel, angle: f64, d: P2) -> StoryModel {
+    let m = |p: P2| add(rotate(p, angle), d);
+    for surface in &mut s.surfaces {
+        surface.curve = surface.curve.transformed(angle, d);
+    }
+    for patch in &mut s.patches {
+        patch.corners = patch.corners.map(m);
+    }
+    s.stations = s.stations.into_iter().map(m).collect();
+    s.route = s.route.into_iter().map(m).collect();
+    for w in &mut s.truth.walls {
+        *w = w.transformed(angle, d);
+    }
+    for p in &mut s.truth.polygons {
+        p.exterior = p.exterior.iter().map(|&q| m(q)).collect();
+        for h in &mut p.holes {
+            *h = h.iter().map(|&q| m(q)).collect();
+        }
+    }
+    s
+}
+
+fn square_room() -> StoryModel {
+    RectStory {
+        floor_z: 0.0,
+        ceiling_z: 2.6,
+        open: vec![Rect::new(0.0, 0.0, 6.0, 5.0)],
+        stations: vec![[2.6, 2.3]],
+        route: vec![[1.5, 1.5], [4.5, 1.5], [4.5, 3.5], [1.5, 3.5], [1.5, 1.5]],
+        ..Default::default()
+    }
+    .into_model()
+}
+
+/// One story of the office. Levels differ in how the south and north wings are partitioned.
+fn office_story(level: usize) -> StoryModel {
+    const T: f64 = 0.2;
+    let floor_z = 3.0 * level as f64;
+    let south: &[f64] = if level == 1 { &[15.0] } else { &[10.0, 20.0] };
+    let north: &[f64] = if level == 2 { &[10.0, 20.0] } else { &[15.0] };
+    let mut s = RectStory {
+        floor_z,
+        ceiling_z: floor_z + 2.7,
+        ..Default::default()
+    };
+    // The corridor loop around the core, and the meeting room inside it.
+    s.open.extend([
+        Rect::new(0.0, 6.2, 30.0, 8.2),
+        Rect::new(0.0, 11.8, 30.0, 13.8),
+        Rect::new(0.0, 6.2, 2.0, 13.8),
+        Rect::new(28.0, 6.2, 30.0, 13.8),
+        Rect::new(8.0, 8.4, 22.0, 11.6),
+    ]);
+    s.doors.push(Rect::new(14.55, 11.6, 15.45, 11.8));
+    s.stations.extend([
+        [5.0, 7.2],
+        [20.0, 7.2],
+        [10.0, 12.8],
+        [25.0, 12.8],
+        [1.0, 10.0],
+        [29.0, 10.0],
+        [12.5, 10.0],
+    ]);
+    let wing = |parts: &[f64]| {
+        let mut edges = vec![0.0];
+        edges.extend(parts.iter().flat_map(|&x| [x - T / 2.0, x + T / 2.0]));
+        edges.push(30.0);
+        edges
+            .chunks(2)
+            .map(|c| (c[0], c[1]))
+            .collect::<Vec<(f64, f64)>>()
+    };
+    let mut south_stops = Vec::new();
+    for (k, (x0, x1)) in wing(south).into_iter().enumerate() {
+        let cx = (x0 + x1) / 2.0;
+        s.open.push(Rect::new(x0, 0.0, x1, 6.0));
+        s.doors.push(Rect::new(cx - 0.45, 6.0, cx + 0.45, 6.2));
+        s.stations.push([cx - 1.2, 3.4]);
+        s.tables.push(Rect::new(cx, 2.65, cx + 1.2, 3.35));
+        if k == 0 {
+            // A square column, seen from a second station as well.
+            s.solid.push(Rect::new(cx + 2.3, 1.3, cx + 2.7, 1.7));
+            s.stations.push([cx + 2.5, 4.4]);
+        }
+        south_stops.push((cx, 4.2));
+    }
+    let mut north_stops = vec![(15.0, 10.0)];
+    let north_rooms = wing(north);
+    let last = north_rooms.len() - 1;
+    for (k, (x0, x1)) in north_rooms.into_iter().enumerate() {
+        let cx = (x0 + x1) / 2.0;
+        s.open.push(Rect::new(x0, 14.0, x1, 20.0));
+        s.doors.push(Rect::new(cx - 0.45, 13.8, cx + 0.45, 14.0));
+        s.stations.push([cx + 1.2, 16.6]);
+        s.tables.push(Rect::new(cx - 1.2, 16.65, cx, 17.35));
+        if k == last {
+            s.round_columns.push(([cx + 3.0, 18.0], 0.25));
+            s.stations.push([cx + 3.0, 15.2]);
+        }
+        north_stops.push((cx, 15.8));
+    }
+    // The route: down the west corridor, east along the south corridor into each room, back
+    // west along the north corridor into each room, and up to the stairs again.
+    let mut route = vec![[1.0, 10.0], [1.0, 7.2]];
+    for (x, y) in south_stops {
+        route.extend([[x, 7.2], [x, y], [x, 7.2]]);
+    }
+    route.extend([[29.0, 7.2], [29.0, 12.8]]);
+    north_stops.sort_by(|a, b| b.0.total_cmp(&a.0));
+    for (x, y) in north_stops {
+        route.extend([[x, 12.8], [x, y], [x, 12.8]]);
+    }
+    route.extend([[1.0, 12.8], [1.0, 10.0]]);
+    s.route = route;
+    s.into_model()
+}
+
+fn curved_lobby() -> StoryModel {
+    let (f, c) = (0.0, 4.0);
+    let arc = TruthWall::Arc {
+        center: [0.0, 0.0],
+        radius: 10.0,
+        start: 0.0,
+        sweep: PI,
+    };
+    let walls = vec![
+        TruthWall::Line {
+            a: [-10.0, -6.0],
+            b: [10.0, -6.0],
+        },
+        TruthWall::Line {
+            a: [10.0, -6.0],
+            b: [10.0, 0.0],
+        },
+        arc,
+        TruthWall::Line {
+            a: [-10.0, 0.0],
+            b: [-10.0, -6.0],
+        },
+    ];
+    let mut exterior = vec![[-10.0, -6.0], [10.0, -6.0]];
+    exterior.extend(densify(&arc, 0.001));
+    let square = Rect::new(-0.3, -3.3, 0.3, -2.7);
+    let mut polygons = group(vec![exterior]);
+    let mut all_walls = walls;
+    let mut hole: Vec<P2> = vec![
+        [square.x0, square.y0],
+        [square.x0, square.y1],
+        [square.x1, square.y1],
+        [square.x1, square.y0],
+    ];
+    all_walls.extend((0..4).map(|k| TruthWall::Line {
+        a: hole[k],
+        b: hole[(k + 1) % 4],
+    }));
+    polygons[0].holes.push(std::mem::take(&mut hole));
+    for center in [[-4.0, 3.0], [4.0, 3.0], [0.0, 7.0]] {
+        add_round_column(&mut polygons, &mut all_walls, center, 0.3);
+    }
+    let surfaces = all_walls
+        .iter()
+        .map(|&curve| Surface { curve, z: [f, c] })
+        .collect();
+    StoryModel {
+        floor_z: f,
+        ceiling_z: c,
+        surfaces,
+        patches: Vec::new(),
+        stations: vec![[-5.0, -3.0], [5.0, -3.0], [0.0, 3.5], [-5.0, 6.0], [5.0, 6.0]],
+        route: vec![
+            [-7.0, -3.0],
+            [7.0, -3.0],
+            [7.0, 4.0],
+            [0.0, 8.5],
+            [-7.0, 4.0],
+            [-7.0, -3.0],
+        ],
+        truth: TruthStory {
+            level: 0,
+            floor_z: f,
+            ceiling_z: c,
+            polygons,
+            walls: all_walls,
+        },
+    }
+}
+
+/// The L's rotation off the axes, radians (27°).
+pub const ROTATED_L_ANGLE: f64 = 27.0 * PI / 180.0;
+
+fn rotated_l() -> StoryModel {
+    let s = RectStory {
+        floor_z: 0.0,
+        ceiling_z: 2.8,
+        open: vec![Rect::new(0.0, 0.0, 12.0, 5.0), Rect::new(0.0, 5.2, 5.0, 10.0)],
+        doors: vec![Rect::new(2.0, 5.0, 2.9, 5.2)],
+        tables: vec![Rect::new(7.5, 1.0, 9.0, 1.8)],
+        stations: vec![[9.5, 3.0], [3.5, 2.5], [2.5, 7.6]],
+        route: vec![[10.5, 2.5], [2.45, 2.5], [2.45, 8.5], [2.45, 2.5], [10.5, 2.5]],
+        ..Default::default()
+    };
+    transform(s.into_model(), ROTATED_L_ANGLE, [3.0, -2.0])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::ring_signed_area;
+
+    fn area(s: &TruthStory) -> f64 {
+        s.polygons
+            .iter()
+            .map(|p| {
+                ring_signed_area(&p.exterior) + p.holes.iter().map(|h| ring_signed_area(h)).sum::<f64>()
+            })
+            .sum()
+    }
+
+    fn wall_length(s: &TruthStory) -> f64 {
+        s.walls.iter().map(TruthWall::length).sum()
+    }
+
+    #[test]
+    fn square_room_truth() {
+        let b = BuildingKind::SquareRoom.build();
+        assert_eq!(b.stories.len(), 1);
+        assert_eq!(area(&b.stories[0].truth), 30.0);
+        assert_eq!(wall_length(&b.stories[0].truth), 22.0);
+    }
+
+    #[test]
+    fn office_has_three_connected_stories() {
+        let b = BuildingKind::Office3Story.build();
+        assert_eq!(b.stories.len(), 3);
+        for s in &b.stories {
+            // Rooms, corridors and the meeting room are joined through doors into one polygon;
+            // the core (with the meeting room cut in) and the columns are holes.
+            assert_eq!(s.truth.polygons.len(), 1, "level {}", s.truth.level);
+            assert_eq!(s.truth.polygons[0].holes.len(), 3);
+            assert!((s.ceiling_z - s.floor_z - 2.7).abs() < 1e-12);
+            for st in &s.stations {
+                assert!(point_in_ring(*st, &s.truth.polygons[0].exterior));
+            }
+        }
+    }
+
+    #[test]
+    fn lobby_area_is_rectangle_plus_half_disc() {
+        let b = BuildingKind::CurvedLobby.build();
+        let want = 20.0 * 6.0 + PI * 50.0 - 0.36 - 3.0 * PI * 0.09;
+        assert!((area(&b.stories[0].truth) - want).abs() < 0.05, "{}", area(&b.stories[0].truth));
+    }
+
+    #[test]
+    fn rotation_keeps_area_and_lengths() {
+        let b = BuildingKind::RotatedL.build();
+        let t = &b.stories[0].truth;
+        assert!((area(t) - (60.0 + 5.0 * 4.8 + 0.9 * 0.2)).abs() < 1e-9);
+        let w = &t.walls[0];
+        if let TruthWall::Line { a, b } = w {
+            let angle = (b[1] - a[1]).atan2(b[0] - a[0]).rem_euclid(PI / 2.0);
+            assert!((angle - ROTATED_L_ANGLE).abs() < 1e-9);
+        }
+    }
+}

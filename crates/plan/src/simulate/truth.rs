@@ -1,0 +1,217 @@
+//! Ground truth of a synthetic building: per story, the floor and ceiling heights, the open
+//! floor as polygons with holes, and every wall as an exact line or arc.
+
+use serde::Serialize;
+
+use crate::geom::{self, P2};
+use crate::plan::{FloorPlan, InputSummary, Polygon, StoryPlan, Wall, WallModel};
+
+/// A wall face on the boundary of the open floor, exactly.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "model", rename_all = "lowercase")]
+pub enum TruthWall {
+    /// A straight piece from `a` to `b`.
+    Line { a: P2, b: P2 },
+    /// A circular piece: from angle `start` (radians, counter-clockwise from +x) through `sweep`
+    /// radians (negative sweeps run clockwise). A full circle has `sweep` = 2π.
+    Arc {
+        center: P2,
+        radius: f64,
+        start: f64,
+        sweep: f64,
+    },
+}
+
+impl TruthWall {
+    /// Length in metres.
+    pub fn length(&self) -> f64 {
+        match *self {
+            TruthWall::Line { a, b } => geom::dist(a, b),
+            TruthWall::Arc { radius, sweep, .. } => radius * sweep.abs(),
+        }
+    }
+
+    /// The point at fraction `f` in [0, 1] along the wall.
+    pub fn at(&self, f: f64) -> P2 {
+        match *self {
+            TruthWall::Line { a, b } => geom::add(a, geom::scale(geom::sub(b, a), f)),
+            TruthWall::Arc {
+                center,
+                radius,
+                start,
+                sweep,
+            } => {
+                let t = start + f * sweep;
+                [center[0] + radius * t.cos(), center[1] + radius * t.sin()]
+            }
+        }
+    }
+
+    /// Distance from `p` to the wall.
+    pub fn distance(&self, p: P2) -> f64 {
+        match *self {
+            TruthWall::Line { a, b } => geom::point_segment_distance(p, a, b),
+            TruthWall::Arc {
+                center,
+                radius,
+                start,
+                sweep,
+            } => {
+                let v = geom::sub(p, center);
+                let angle = v[1].atan2(v[0]);
+                if angle_in_sweep(angle, start, sweep) {
+                    (geom::norm(v) - radius).abs()
+                } else {
+                    geom::dist(p, self.at(0.0)).min(geom::dist(p, self.at(1.0)))
+                }
+            }
+        }
+    }
+
+    /// The wall moved by `d` and rotated by `angle` about the origin (rotation first).
+    pub fn transformed(&self, angle: f64, d: P2) -> TruthWall {
+        let m = |p: P2| geom::add(rotate(p, angle), d);
+        match *self {
+            TruthWall::Line { a, b } => TruthWall::Line { a: m(a), b: m(b) },
+            TruthWall::Arc {
+                center,
+                radius,
+                start,
+                sweep,
+            } => TruthWall::Arc {
+                center: m(center),
+                radius,
+                start: start + angle,
+                sweep,
+            },
+        }
+    }
+}
+
+/// True when `angle` lies on the arc that starts at `start` and sweeps `sweep` radians.
+pub fn angle_in_sweep(angle: f64, start: f64, sweep: f64) -> bool {
+    if sweep.abs() >= std::f64::consts::TAU {
+        return true;
+    }
+    let tau = std::f64::consts::TAU;
+    let (lo, len) = if sweep >= 0.0 {
+        (start, sweep)
+    } else {
+        (start + sweep, -sweep)
+    };
+    (angle - lo).rem_euclid(tau) <= len
+}
+
+/// `p` rotated by `angle` radians about the origin.
+pub fn rotate(p: P2, angle: f64) -> P2 {
+    let (s, c) = angle.sin_cos();
+    [c * p[0] - s * p[1], s * p[0] + c * p[1]]
+}
+
+/// One story's ground truth (local frame).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TruthStory {
+    pub level: usize,
+    pub floor_z: f64,
+    pub ceiling_z: f64,
+    /// Open floor, door openings included; exteriors CCW, holes CW, arcs densified to 1 mm.
+    pub polygons: Vec<Polygon>,
+    /// Every wall face bounding the open floor, exactly.
+    pub walls: Vec<TruthWall>,
+}
+
+/// A whole building's ground truth: world = `origin` + local.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Truth {
+    pub building: String,
+    pub origin: [f64; 3],
+    pub stories: Vec<TruthStory>,
+}
+
+impl Truth {
+    /// The truth as a [`FloorPlan`], so the GeoJSON writer can write it in the plan contract.
+    /// Arc walls are densified to 1 cm chord error, as fitted walls are.
+    pub fn to_floor_plan(&self) -> FloorPlan {
+        FloorPlan {
+            origin: self.origin,
+            crs: None,
+            input: InputSummary {
+                points: 0,
+                format: "truth".into(),
+                scans: 0,
+            },
+            parameters: serde_json::json!({"building": self.building}),
+            timings_ms: Vec::new(),
+            stories: self.stories.iter().map(story_plan).collect(),
+            notes: vec![format!("ground truth of the simulated building `{}`", self.building)],
+        }
+    }
+}
+
+fn story_plan(s: &TruthStory) -> StoryPlan {
+    StoryPlan {
+        level: s.level,
+        floor_z: s.floor_z,
+        ceiling_z: s.ceiling_z,
+        polygons: s.polygons.clone(),
+        walls: s
+            .walls
+            .iter()
+            .map(|w| match *w {
+                TruthWall::Line { a, b } => Wall {
+                    model: WallModel::Line,
+                    points: vec![a, b],
+                    support: 0,
+                },
+                TruthWall::Arc {
+                    center, radius, ..
+                } => Wall {
+                    model: WallModel::Arc { center, radius },
+                    points: densify(w, 0.01),
+                    support: 0,
+                },
+            })
+            .collect(),
+        samples: Vec::new(),
+    }
+}
+
+/// Points along a wall, with chord error at most `chord_error` on arcs (both ends included).
+pub fn densify(wall: &TruthWall, chord_error: f64) -> Vec<P2> {
+    match *wall {
+        TruthWall::Line { a, b } => vec![a, b],
+        TruthWall::Arc { radius, sweep, .. } => {
+            // A chord of angle θ deviates r(1 - cos(θ/2)) from the arc.
+            let step = 2.0 * (1.0 - chord_error / radius).clamp(-1.0, 1.0).acos();
+            let n = ((sweep.abs() / step.max(1e-6)).ceil() as usize).max(1);
+            (0..=n).map(|k| wall.at(k as f64 / n as f64)).collect()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::PI;
+
+    #[test]
+    fn arc_distance_and_sweep() {
+        let arc = TruthWall::Arc {
+            center: [0.0, 0.0],
+            radius: 2.0,
+            start: 0.0,
+            sweep: PI,
+        };
+        assert!((arc.distance([0.0, 3.0]) - 1.0).abs() < 1e-12);
+        // Below the half circle: nearest is an end point.
+        assert!((arc.distance([2.0, -1.0]) - 1.0).abs() < 1e-12);
+        assert!((arc.length() - 2.0 * PI).abs() < 1e-12);
+        assert!(angle_in_sweep(-PI / 2.0, 0.0, -PI));
+        assert!(!angle_in_sweep(-PI / 2.0, 0.0, PI));
+        let pts = densify(&arc, 0.001);
+        for w in pts.windows(2) {
+            let mid = geom::scale(geom::add(w[0], w[1]), 0.5);
+            assert!(2.0 - geom::norm(mid) <= 0.001 + 1e-12);
+        }
+    }
+}
