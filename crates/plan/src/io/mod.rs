@@ -310,3 +310,50 @@ pub fn scale_cloud(cloud: &mut PointCloud, s: f64) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cloud::ScanPose;
+
+    #[test]
+    fn scale_multiplies_origin_points_and_poses() {
+        let mut cloud = PointCloud::from_world(&[[20_000.0, 0.0, 0.0], [20_001.0, 2.0, 3.0]]);
+        cloud.viewpoints = Viewpoints::Static(vec![ScanPose {
+            index: 0,
+            position: [10.0, 20.0, 30.0],
+            quaternion: [1.0, 0.0, 0.0, 0.0],
+        }]);
+        scale_cloud(&mut cloud, 0.001);
+        let world: Vec<[f64; 3]> = cloud
+            .xyz
+            .iter()
+            .map(|p| [0, 1, 2].map(|k| cloud.origin[k] + f64::from(p[k])))
+            .collect();
+        assert!((world[1][0] - 20.001).abs() < 1e-9);
+        assert!((world[1][2] - 0.003).abs() < 1e-9);
+        let Viewpoints::Static(p) = &cloud.viewpoints else {
+            panic!("poses lost")
+        };
+        assert!((p[0].position[1] - 0.02).abs() < 1e-12);
+    }
+
+    #[test]
+    fn in_memory_sources_read_and_bad_scales_are_refused() {
+        let text = b"1 2 3\n4 5 6\n".to_vec();
+        let c = read_cloud_from(
+            std::io::Cursor::new(text.clone()),
+            "mem",
+            &Default::default(),
+        )
+        .unwrap();
+        assert_eq!(c.len(), 2);
+        assert_eq!(c.source.units, "m (assumed)");
+        let opts = ReadOptions {
+            scale: Some(-1.0),
+            ..Default::default()
+        };
+        let err = read_cloud_from(std::io::Cursor::new(text), "mem", &opts).unwrap_err();
+        assert_eq!(err.code(), "invalid_options");
+    }
+}
