@@ -195,3 +195,57 @@ fn info_reports_the_cloud_or_names_the_file() {
         assert!(line.contains("small.ply"), "{line}");
     }
 }
+
+/// A one-story room scanned in millimetres, as XYZ text with the scan index in column 3.
+fn millimetre_room(dir: &Path) -> PathBuf {
+    let mut text = String::from("x y z scan\n");
+    for i in 0..200 {
+        let t = f64::from(i) / 199.0;
+        text.push_str(&format!(
+            "{} {} {} {}\n",
+            4000.0 * t,
+            3000.0 * (1.0 - t),
+            2700.0 * t,
+            i % 2
+        ));
+    }
+    let path = dir.join("room.txt");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn a_millimetre_cloud_is_refused_with_the_scale_to_use() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = millimetre_room(dir.path());
+    let line = assert_one_line_failure(&asbuilt(&["plan", input.to_str().unwrap(), "--quiet"]));
+    assert!(
+        line.contains("room.txt") && line.contains("--scale 0.001"),
+        "{line}"
+    );
+
+    let out = asbuilt(&["info", input.to_str().unwrap(), "--scan-column", "3"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("format: xyz"), "{text}");
+    assert!(text.contains("units: m (assumed)\n"), "{text}");
+    assert!(text.contains("units warning:"), "{text}");
+    assert!(text.contains("scans: 2 (0, 1)"), "{text}");
+
+    let out = asbuilt(&[
+        "info",
+        input.to_str().unwrap(),
+        "--scale",
+        "0.001",
+        "--format",
+        "xyz",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("units: m (coordinates multiplied by 0.001"),
+        "{text}"
+    );
+    assert!(!text.contains("units warning"), "{text}");
+    assert!(text.contains("size: 4.000 x 3.000 x 2.700 m"), "{text}");
+}

@@ -16,11 +16,14 @@ pub struct InfoArgs {
     /// A mobile scanner's path to attach and check against the points' times.
     #[arg(long, value_name = "FILE")]
     pub trajectory: Option<PathBuf>,
+    #[command(flatten)]
+    pub read: super::plan::ReadArgs,
 }
 
 pub fn run(args: InfoArgs) -> anyhow::Result<ExitCode> {
     let cloud = super::plan::load(
         &args.input,
+        &args.read.options(true),
         args.poses.as_deref(),
         args.trajectory.as_deref(),
     )?;
@@ -52,6 +55,9 @@ pub fn describe(name: &str, cloud: &PointCloud) -> String {
         &src.units
     };
     let _ = writeln!(s, "units: {units}");
+    if let Err(e) = asbuilt_plan::io::check_units(cloud) {
+        let _ = writeln!(s, "units warning: {e}");
+    }
     let _ = writeln!(s, "crs: {}", cloud.crs.as_deref().unwrap_or("none"));
     let o = cloud.origin;
     let _ = writeln!(s, "local origin: {:.3} {:.3} {:.3}", o[0], o[1], o[2]);

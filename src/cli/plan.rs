@@ -6,8 +6,8 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{bail, Context};
-use asbuilt_plan::cloud::{PointCloud, Viewpoints};
-use asbuilt_plan::io::{self, dxf, geojson, poses, svg};
+use asbuilt_plan::cloud::PointCloud;
+use asbuilt_plan::io::{self, dxf, geojson, poses, svg, Format, ReadOptions};
 use asbuilt_plan::progress::Stage;
 use asbuilt_plan::{FloorPlan, Params};
 
@@ -41,9 +41,8 @@ pub struct PlanArgs {
     /// Expected registration error between scans, metres (turns on sample smoothing).
     #[arg(long, value_name = "M")]
     pub registration_error: Option<f64>,
-    /// Multiply input coordinates by S to get metres (e.g. 0.001 for millimetres).
-    #[arg(long, value_name = "S")]
-    pub scale: Option<f64>,
+    #[command(flatten)]
+    pub read: ReadArgs,
     /// Include each story's wall samples in the outputs.
     #[arg(long)]
     pub emit_samples: bool,
@@ -52,11 +51,38 @@ pub struct PlanArgs {
     pub quiet: bool,
 }
 
+/// How to read the input; shared by `plan` and `info`.
+#[derive(clap::Args, Clone, Default)]
+pub struct ReadArgs {
+    /// Multiply input coordinates (and sidecar positions) by S to get metres, e.g. 0.001 for
+    /// millimetres.
+    #[arg(long, value_name = "S")]
+    pub scale: Option<f64>,
+    /// XYZ/PTS: the zero-based column holding each point's scan index (x is column 0).
+    #[arg(long, value_name = "N")]
+    pub scan_column: Option<usize>,
+    /// Read as this format instead of detecting it from the content: e57, las, laz, ply, xyz, pts.
+    #[arg(long, value_name = "FORMAT")]
+    pub format: Option<Format>,
+}
+
+impl ReadArgs {
+    /// The reader's options; times are kept only when a trajectory needs them.
+    pub fn options(&self, keep_time: bool) -> ReadOptions {
+        ReadOptions {
+            scale: self.scale,
+            scan_column: self.scan_column,
+            format: self.format,
+            keep_time,
+        }
+    }
+}
+
 pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
     let start = Instant::now();
     // Everything that can be checked cheaply is checked before the long run.
     let params = params(&args)?;
-    if let Some(s) = args.scale {
+    if let Some(s) = args.read.scale {
         check_scale(s)?;
     }
     for out in [&args.output, &args.svg, &args.dxf].into_iter().flatten() {
@@ -65,14 +91,13 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
     let bar = Bar::new(args.quiet);
     bar.stage(Stage::Read);
     let read_start = Instant::now();
-    let mut cloud = load(
+    let cloud = load(
         &args.input,
+        &args.read.options(args.trajectory.is_some()),
         args.poses.as_deref(),
         args.trajectory.as_deref(),
     )?;
-    if let Some(s) = args.scale {
-        apply_scale(&mut cloud, s)?;
-    }
+    io::check_units(&cloud).with_context(|| format!("{}", args.input.display()))?;
     let read_ms = read_start.elapsed().as_millis() as u64;
 
     let mut bar = bar;
@@ -81,7 +106,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
     let mut plan = result.with_context(|| format!("{}", args.input.display()))?;
     drop(cloud);
     add_read_time(&mut plan, read_ms);
-    if let Some(s) = args.scale {
+    if let Some(s) = args.read.scale {
         plan.notes
             .push(format!("input coordinates were multiplied by {s}"));
     }
@@ -155,23 +180,32 @@ fn check_writable(path: &Path) -> anyhow::Result<()> {
 }
 
 /// Reads the cloud and attaches a pose or trajectory sidecar, naming the file on failure.
+/// Sidecars are in the file's units, so they get the same scale as the points.
 pub(super) fn load(
     input: &Path,
+    options: &ReadOptions,
     poses_file: Option<&Path>,
     trajectory_file: Option<&Path>,
 ) -> anyhow::Result<PointCloud> {
-    let mut cloud = io::read_cloud(input)?;
+    let mut cloud = io::read_cloud_with(input, options)?;
+    let s = options.scale.unwrap_or(1.0);
     if let Some(path) = poses_file {
         let text =
             std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-        let scans = poses::parse_poses(&text).with_context(|| format!("{}", path.display()))?;
+        let mut scans = poses::parse_poses(&text).with_context(|| format!("{}", path.display()))?;
+        for p in &mut scans {
+            p.position = p.position.map(|c| c * s);
+        }
         poses::attach_poses(&mut cloud, scans).with_context(|| format!("{}", path.display()))?;
     }
     if let Some(path) = trajectory_file {
         let text =
             std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-        let samples =
+        let mut samples =
             poses::parse_trajectory(&text).with_context(|| format!("{}", path.display()))?;
+        for p in &mut samples {
+            p.position = p.position.map(|c| c * s);
+        }
         poses::attach_trajectory(&mut cloud, samples)
             .with_context(|| format!("{}", path.display()))?;
     }
@@ -181,31 +215,6 @@ pub(super) fn load(
 fn check_scale(s: f64) -> anyhow::Result<()> {
     if !(s.is_finite() && s > 0.0) {
         bail!("--scale must be a positive number, not {s}");
-    }
-    Ok(())
-}
-
-/// Scales the whole cloud (origin, points, scanner positions) about the world origin, so
-/// that a file in other units becomes metres. Sidecars are attached first, in file units.
-fn apply_scale(cloud: &mut PointCloud, s: f64) -> anyhow::Result<()> {
-    check_scale(s)?;
-    cloud.origin = cloud.origin.map(|c| c * s);
-    let sf = s as f32;
-    for p in &mut cloud.xyz {
-        *p = p.map(|c| c * sf);
-    }
-    match &mut cloud.viewpoints {
-        Viewpoints::None => {}
-        Viewpoints::Static(poses) => {
-            for p in poses {
-                p.position = p.position.map(|c| c * s);
-            }
-        }
-        Viewpoints::Trajectory(samples) => {
-            for p in samples {
-                p.position = p.position.map(|c| c * s);
-            }
-        }
     }
     Ok(())
 }
@@ -279,31 +288,6 @@ fn report(plan: &FloorPlan, write_ms: u64, total_ms: u64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use asbuilt_plan::cloud::ScanPose;
-
-    #[test]
-    fn scale_multiplies_origin_points_and_poses() {
-        let mut cloud = PointCloud::from_world(&[[20_000.0, 0.0, 0.0], [20_001.0, 2.0, 3.0]]);
-        cloud.viewpoints = Viewpoints::Static(vec![ScanPose {
-            index: 0,
-            position: [10.0, 20.0, 30.0],
-            quaternion: [1.0, 0.0, 0.0, 0.0],
-        }]);
-        apply_scale(&mut cloud, 0.001).unwrap();
-        let world: Vec<[f64; 3]> = cloud
-            .xyz
-            .iter()
-            .map(|p| [0, 1, 2].map(|k| cloud.origin[k] + p[k] as f64))
-            .collect();
-        assert!((world[1][0] - 20.001).abs() < 1e-9);
-        assert!((world[1][2] - 0.003).abs() < 1e-9);
-        let Viewpoints::Static(p) = &cloud.viewpoints else {
-            panic!("poses lost")
-        };
-        assert!((p[0].position[1] - 0.02).abs() < 1e-12);
-        assert!(apply_scale(&mut cloud, 0.0).is_err());
-        assert!(apply_scale(&mut cloud, f64::NAN).is_err());
-    }
 
     #[test]
     fn multi_line_parser_errors_become_one_line() {
@@ -354,7 +338,7 @@ mod tests {
             params: None,
             overrides: vec![],
             registration_error: None,
-            scale: None,
+            read: ReadArgs::default(),
             emit_samples: false,
             quiet: true,
         };

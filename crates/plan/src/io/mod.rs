@@ -1,14 +1,25 @@
 //! Reading clouds and pose sidecars, and writing plans. The only module that touches files.
 
+mod assemble;
+pub mod detect;
 pub mod dxf;
+pub mod e57;
+pub mod export;
 pub mod geojson;
+pub mod las;
 pub mod ply;
 pub mod poses;
 pub mod svg;
+mod units;
+pub mod xyz;
 
+use std::fs::File;
+use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
-use crate::cloud::PointCloud;
+use crate::cloud::{PointCloud, Viewpoints};
+pub use detect::Format;
+pub use units::{check_units, UnitsError};
 
 /// Why a file could not be read. Every variant names the file and, where it helps, the place.
 #[derive(Debug, thiserror::Error)]
@@ -29,6 +40,8 @@ pub enum ReadError {
     },
     #[error("{path}: poses: {why}")]
     Poses { path: String, why: String },
+    #[error("{path}: {why}")]
+    Options { path: String, why: String },
 }
 
 impl ReadError {
@@ -42,6 +55,39 @@ impl ReadError {
         }
     }
 
+    /// A format error at a place in the file (`byte 1234`, `line 57`, `scan 3`).
+    pub fn at(
+        name: &str,
+        format: &'static str,
+        why: impl Into<String>,
+        at: impl Into<String>,
+    ) -> ReadError {
+        ReadError::Invalid {
+            path: name.to_string(),
+            format,
+            why: why.into(),
+            at: Some(at.into()),
+        }
+    }
+
+    /// A format error without a location, for a file known by name.
+    pub fn named(name: &str, format: &'static str, why: impl Into<String>) -> ReadError {
+        ReadError::Invalid {
+            path: name.to_string(),
+            format,
+            why: why.into(),
+            at: None,
+        }
+    }
+
+    /// An I/O error while reading the named file.
+    pub fn io(name: &str, source: std::io::Error) -> ReadError {
+        ReadError::Io {
+            path: name.to_string(),
+            source,
+        }
+    }
+
     /// A stable machine-readable code for the service's error bodies.
     pub fn code(&self) -> &'static str {
         match self {
@@ -49,28 +95,265 @@ impl ReadError {
             ReadError::UnknownFormat { .. } => "unknown_format",
             ReadError::Invalid { .. } => "invalid_file",
             ReadError::Poses { .. } => "invalid_poses",
+            ReadError::Options { .. } => "invalid_options",
+        }
+    }
+}
+
+/// How to read a cloud: everything here has a safe default.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReadOptions {
+    /// Multiply coordinates by this to get metres (0.001 for millimetres). `None` keeps them.
+    pub scale: Option<f64>,
+    /// XYZ/PTS: the zero-based column holding each point's scan index (x is column 0).
+    pub scan_column: Option<usize>,
+    /// Use this reader instead of detecting the format from the content.
+    pub format: Option<Format>,
+    /// Keep per-point acquisition times (LAS `gps_time`, PLY `time`). They cost 8 bytes a point,
+    /// so callers without a trajectory may turn them off.
+    pub keep_time: bool,
+}
+
+impl Default for ReadOptions {
+    fn default() -> Self {
+        ReadOptions {
+            scale: None,
+            scan_column: None,
+            format: None,
+            keep_time: true,
         }
     }
 }
 
 /// Reads a point cloud, choosing the reader from the file's content.
 pub fn read_cloud(path: &Path) -> Result<PointCloud, ReadError> {
-    use std::io::Read;
-    let io = |source| ReadError::Io {
-        path: path.display().to_string(),
-        source,
+    read_cloud_with(path, &ReadOptions::default())
+}
+
+/// Reads a point cloud with options; the format comes from the content unless `options` names it.
+pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<PointCloud, ReadError> {
+    let name = path.display().to_string();
+    let mut file = File::open(path).map_err(|e| ReadError::io(&name, e))?;
+    let head = sniff(&mut file, &name)?;
+    let format = choose_format(&name, &head, options)?;
+    let mut cloud = match format {
+        Format::Ply => ply::read_ply(path)?,
+        _ => read_stream(file, &name, format, options)?,
     };
-    let mut magic = Vec::with_capacity(4);
-    std::fs::File::open(path)
-        .map_err(io)?
-        .take(4)
-        .read_to_end(&mut magic)
-        .map_err(io)?;
-    if magic == b"ply\n" || magic == b"ply\r" {
-        return ply::read_ply(path);
+    if let Some(named) = Format::from_extension(path) {
+        let same = named == format || matches!((named, format), (Format::Las, Format::Laz));
+        if !same && options.format.is_none() {
+            cloud.source.details +=
+                &format!("; read as {format} from its content, although the name says .{named}");
+        }
     }
-    Err(ReadError::UnknownFormat {
-        path: path.display().to_string(),
-        why: "only PLY is read so far".into(),
+    finish(cloud, &name, options)
+}
+
+/// Reads a point cloud from any seekable source (an upload held in memory, say); `name` is
+/// used in errors. PLY is read from files only.
+pub fn read_cloud_from<R>(
+    mut source: R,
+    name: &str,
+    options: &ReadOptions,
+) -> Result<PointCloud, ReadError>
+where
+    R: Read + Seek + Send + Sync + 'static,
+{
+    let head = sniff(&mut source, name)?;
+    let format = choose_format(name, &head, options)?;
+    if format == Format::Ply {
+        return Err(ReadError::named(
+            name,
+            "ply",
+            "PLY is read from files only; save it to a file first",
+        ));
+    }
+    let cloud = read_stream(source, name, format, options)?;
+    finish(cloud, name, options)
+}
+
+/// The first bytes, for detection; the source is rewound afterwards.
+fn sniff<R: Read + Seek>(source: &mut R, name: &str) -> Result<Vec<u8>, ReadError> {
+    let mut head = Vec::with_capacity(detect::SNIFF_LEN);
+    source
+        .by_ref()
+        .take(detect::SNIFF_LEN as u64)
+        .read_to_end(&mut head)
+        .and_then(|_| source.seek(SeekFrom::Start(0)))
+        .map_err(|e| ReadError::io(name, e))?;
+    Ok(head)
+}
+
+fn choose_format(name: &str, head: &[u8], options: &ReadOptions) -> Result<Format, ReadError> {
+    if let Some(s) = options.scale {
+        if !(s.is_finite() && s > 0.0) {
+            return Err(ReadError::Options {
+                path: name.into(),
+                why: format!("the scale must be a positive number, not {s}"),
+            });
+        }
+    }
+    match options.format {
+        Some(f) => Ok(f),
+        None => detect::detect(head).map_err(|why| ReadError::UnknownFormat {
+            path: name.into(),
+            why,
+        }),
+    }
+}
+
+/// Runs the reader on a thread of its own. The LAZ arithmetic decoder recurses deeply enough to
+/// overflow the main thread's stack on some files, so the thread gets a large stack (reserved,
+/// not committed); and a panic in a decoder becomes an error naming the file, not a crash.
+fn read_stream<R>(
+    mut source: R,
+    name: &str,
+    format: Format,
+    options: &ReadOptions,
+) -> Result<PointCloud, ReadError>
+where
+    R: Read + Seek + Send + Sync + 'static,
+{
+    const STACK: usize = 1 << 30;
+    let len = source
+        .seek(SeekFrom::End(0))
+        .and_then(|len| source.seek(SeekFrom::Start(0)).map(|_| len))
+        .map_err(|e| ReadError::io(name, e))?;
+    let owned_name = name.to_string();
+    let opts = options.clone();
+    let worker = std::thread::Builder::new()
+        .name("asbuilt-read".into())
+        .stack_size(STACK)
+        .spawn(move || {
+            let name = owned_name.as_str();
+            match format {
+                Format::E57 => e57::read_e57(source, len, name, &opts),
+                Format::Las | Format::Laz => las::read_las(source, len, name, &opts),
+                Format::Xyz | Format::Pts => xyz::read_xyz(
+                    BufReader::with_capacity(1 << 20, source),
+                    len,
+                    name,
+                    format,
+                    &opts,
+                ),
+                Format::Ply => Err(ReadError::named(name, "ply", "PLY needs a file path")),
+            }
+        })
+        .map_err(|e| ReadError::io(name, e))?;
+    worker.join().unwrap_or_else(|panic| {
+        let what = panic
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        Err(ReadError::named(
+            name,
+            format.name(),
+            format!("the decoder failed ({what}); the file is probably corrupt"),
+        ))
     })
+}
+
+/// Applies the scale, records the units and checks the reader's invariants.
+fn finish(
+    mut cloud: PointCloud,
+    name: &str,
+    options: &ReadOptions,
+) -> Result<PointCloud, ReadError> {
+    match options.scale {
+        Some(s) => {
+            scale_cloud(&mut cloud, s);
+            let was = if cloud.source.units.is_empty() {
+                String::new()
+            } else {
+                format!(", read as {}", cloud.source.units)
+            };
+            cloud.source.units = format!("m (coordinates multiplied by {s}{was})");
+        }
+        None if cloud.source.units.is_empty() => cloud.source.units = "m (assumed)".into(),
+        None => {}
+    }
+    let format: &'static str = match cloud.source.format.as_str() {
+        "e57" => "e57",
+        "las" => "las",
+        "laz" => "laz",
+        "ply" => "ply",
+        "pts" => "pts",
+        _ => "xyz",
+    };
+    cloud
+        .check()
+        .map_err(|why| ReadError::named(name, format, why))?;
+    Ok(cloud)
+}
+
+/// Scales a whole cloud (origin, points, scanner positions) about the world origin, so that a
+/// file in other units becomes metres.
+pub fn scale_cloud(cloud: &mut PointCloud, s: f64) {
+    cloud.origin = cloud.origin.map(|c| c * s);
+    let sf = s as f32;
+    for p in &mut cloud.xyz {
+        *p = p.map(|c| c * sf);
+    }
+    match &mut cloud.viewpoints {
+        Viewpoints::None => {}
+        Viewpoints::Static(poses) => {
+            for p in poses {
+                p.position = p.position.map(|c| c * s);
+            }
+        }
+        Viewpoints::Trajectory(samples) => {
+            for p in samples {
+                p.position = p.position.map(|c| c * s);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cloud::ScanPose;
+
+    #[test]
+    fn scale_multiplies_origin_points_and_poses() {
+        let mut cloud = PointCloud::from_world(&[[20_000.0, 0.0, 0.0], [20_001.0, 2.0, 3.0]]);
+        cloud.viewpoints = Viewpoints::Static(vec![ScanPose {
+            index: 0,
+            position: [10.0, 20.0, 30.0],
+            quaternion: [1.0, 0.0, 0.0, 0.0],
+        }]);
+        scale_cloud(&mut cloud, 0.001);
+        let world: Vec<[f64; 3]> = cloud
+            .xyz
+            .iter()
+            .map(|p| [0, 1, 2].map(|k| cloud.origin[k] + f64::from(p[k])))
+            .collect();
+        assert!((world[1][0] - 20.001).abs() < 1e-9);
+        assert!((world[1][2] - 0.003).abs() < 1e-9);
+        let Viewpoints::Static(p) = &cloud.viewpoints else {
+            panic!("poses lost")
+        };
+        assert!((p[0].position[1] - 0.02).abs() < 1e-12);
+    }
+
+    #[test]
+    fn in_memory_sources_read_and_bad_scales_are_refused() {
+        let text = b"1 2 3\n4 5 6\n".to_vec();
+        let c = read_cloud_from(
+            std::io::Cursor::new(text.clone()),
+            "mem",
+            &Default::default(),
+        )
+        .unwrap();
+        assert_eq!(c.len(), 2);
+        assert_eq!(c.source.units, "m (assumed)");
+        let opts = ReadOptions {
+            scale: Some(-1.0),
+            ..Default::default()
+        };
+        let err = read_cloud_from(std::io::Cursor::new(text), "mem", &opts).unwrap_err();
+        assert_eq!(err.code(), "invalid_options");
+    }
 }

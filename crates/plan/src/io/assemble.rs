@@ -1,0 +1,165 @@
+//! Building the compact `PointCloud` point by point as a reader decodes its chunks, so no reader
+//! ever holds a second copy of the cloud.
+
+use std::collections::HashMap;
+
+use crate::cloud::{local_origin, to_local, PointCloud};
+
+/// The most scans a cloud may name: scan slots are `u16`.
+pub const MAX_SCANS: usize = u16::MAX as usize + 1;
+
+/// Collects points into a [`PointCloud`]: local `f32` coordinates, scan slots, optional times.
+/// Non-finite points are skipped and counted.
+pub(crate) struct CloudBuilder {
+    cloud: PointCloud,
+    origin: Option<[f64; 3]>,
+    skipped: u64,
+    slot_of: HashMap<u32, u16>,
+    last: Option<(u32, u16)>,
+    keep_time: bool,
+}
+
+impl CloudBuilder {
+    /// A builder expecting about `expected` points. `origin` fixes the local frame (from a
+    /// header); otherwise the first finite point chooses it.
+    pub fn new(format: &str, expected: usize, origin: Option<[f64; 3]>, keep_time: bool) -> Self {
+        let mut cloud = PointCloud::default();
+        cloud.source.format = format.into();
+        // Exact reservations keep the peak at one array; growth beyond is left to `Vec`.
+        cloud.xyz.reserve_exact(expected);
+        CloudBuilder {
+            cloud,
+            origin: origin.map(|o| local_origin(Some(o))),
+            skipped: 0,
+            slot_of: HashMap::new(),
+            last: None,
+            keep_time,
+        }
+    }
+
+    /// Makes room for `n` more points.
+    pub fn reserve(&mut self, n: usize) {
+        self.cloud.xyz.reserve_exact(n);
+    }
+
+    /// Declares a scan before its points (E57 declares every scan, even empty ones).
+    pub fn scan_slot(&mut self, id: u32) -> Result<u16, String> {
+        if let Some((last_id, slot)) = self.last {
+            if last_id == id {
+                return Ok(slot);
+            }
+        }
+        let slot = match self.slot_of.get(&id) {
+            Some(&slot) => slot,
+            None => {
+                let n = self.cloud.scan_ids.len();
+                if n >= MAX_SCANS {
+                    return Err(format!("more than {MAX_SCANS} distinct scan indices"));
+                }
+                self.cloud.scan_ids.push(id);
+                self.slot_of.insert(id, n as u16);
+                n as u16
+            }
+        };
+        self.last = Some((id, slot));
+        Ok(slot)
+    }
+
+    /// Adds a point in world coordinates. `scan` is a slot from [`Self::scan_slot`].
+    #[inline]
+    pub fn push(&mut self, p: [f64; 3], scan: Option<u16>, time: Option<f64>) {
+        if !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()) {
+            self.skipped += 1;
+            return;
+        }
+        let origin = *self.origin.get_or_insert_with(|| local_origin(Some(p)));
+        if self.cloud.xyz.len() == self.cloud.xyz.capacity() {
+            // Grow by a quarter, not double, so the array never overshoots by much.
+            let extra = (self.cloud.xyz.len() / 4).max(1 << 16);
+            self.cloud.xyz.reserve_exact(extra);
+        }
+        self.cloud.xyz.push(to_local(origin, p));
+        if let Some(slot) = scan {
+            if self.cloud.scan.capacity() == 0 {
+                self.cloud.scan.reserve_exact(self.cloud.xyz.capacity());
+            }
+            self.cloud.scan.push(slot);
+        }
+        if let (true, Some(t)) = (self.keep_time, time) {
+            if self.cloud.time.capacity() == 0 {
+                self.cloud.time.reserve_exact(self.cloud.xyz.capacity());
+            }
+            self.cloud.time.push(t);
+        }
+    }
+
+    /// Gives access to the cloud's other fields (viewpoints, CRS, details) before finishing.
+    pub fn cloud_mut(&mut self) -> &mut PointCloud {
+        &mut self.cloud
+    }
+
+    /// Finishes the cloud: trims spare capacity and records what was skipped.
+    pub fn finish(mut self, details: String) -> PointCloud {
+        let c = &mut self.cloud;
+        c.origin = self.origin.unwrap_or([0.0; 3]);
+        c.xyz.shrink_to_fit();
+        c.scan.shrink_to_fit();
+        c.time.shrink_to_fit();
+        // A scan index per point is only meaningful when every point has one.
+        if c.scan.len() != c.xyz.len() {
+            c.scan.clear();
+        }
+        if c.time.len() != c.xyz.len() {
+            c.time = Vec::new();
+        }
+        if c.scan.is_empty() && !matches!(c.viewpoints, crate::cloud::Viewpoints::Static(_)) {
+            c.scan_ids.clear();
+        }
+        c.source.details = details;
+        c.source.skipped += self.skipped;
+        if c.source.skipped > 0 && c.source.skipped_reason.is_none() {
+            c.source.skipped_reason = Some("non-finite coordinates".into());
+        }
+        self.cloud
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn skips_non_finite_points_and_counts_them() {
+        let mut b = CloudBuilder::new("xyz", 4, None, true);
+        let s = b.scan_slot(7).unwrap();
+        b.push([1.0, 2.0, 3.0], Some(s), Some(0.5));
+        b.push([f64::NAN, 2.0, 3.0], Some(s), Some(0.6));
+        b.push([1.0, f64::INFINITY, 3.0], Some(s), Some(0.7));
+        let c = b.finish("test".into());
+        assert_eq!(c.xyz, vec![[1.0, 2.0, 3.0]]);
+        assert_eq!(c.source.skipped, 2);
+        assert_eq!(
+            c.source.skipped_reason.as_deref(),
+            Some("non-finite coordinates")
+        );
+        assert_eq!(c.scan, vec![0]);
+        assert_eq!(c.time, vec![0.5]);
+        assert!(c.check().is_ok());
+    }
+
+    #[test]
+    fn far_points_get_a_kilometre_origin_and_scans_get_slots_in_order() {
+        let mut b = CloudBuilder::new("las", 0, None, false);
+        let a = b.scan_slot(16).unwrap();
+        let c = b.scan_slot(3).unwrap();
+        assert_eq!((a, c, b.scan_slot(16).unwrap()), (0, 1, 0));
+        b.push([500_123.5, 5_400_321.25, 12.0], Some(a), Some(1.0));
+        b.push([500_124.5, 5_400_322.25, 13.0], Some(c), Some(2.0));
+        let cloud = b.finish(String::new());
+        assert_eq!(cloud.origin, [500_000.0, 5_400_000.0, 0.0]);
+        assert_eq!(cloud.xyz[1], [124.5, 322.25, 13.0]);
+        assert_eq!(cloud.scan_ids, vec![16, 3]);
+        assert_eq!(cloud.scan, vec![0, 1]);
+        assert!(cloud.time.is_empty(), "times are dropped unless kept");
+    }
+}
