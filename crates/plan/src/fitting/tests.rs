@@ -86,6 +86,7 @@ fn room_gives_four_line_walls_with_exact_corners() {
     let ext = &f.polygons[0].exterior;
     assert_eq!(ext.len(), 4, "{ext:?}");
     let err = corner_error(&room(), ext);
+    eprintln!("room 4 × 3 m (noise-free): max corner error {:.2e} m", err);
     assert!(err < 1e-3, "corner error {err}");
     assert!((geom::ring_signed_area(ext) - 12.0).abs() < 1e-2);
     assert_eq!(f.walls.len(), 4);
@@ -125,7 +126,9 @@ fn l_shape_gives_six_walls_with_exact_corners() {
     );
     let ext = &f.polygons[0].exterior;
     assert_eq!(ext.len(), 6, "{ext:?}");
-    assert!(corner_error(&l_shape, ext) < 1e-3);
+    let err = corner_error(&l_shape, ext);
+    eprintln!("L shape (noise-free): max corner error {:.2e} m", err);
+    assert!(err < 1e-3);
     assert_eq!(f.walls.len(), 6);
     assert!((geom::ring_signed_area(ext) - 14.0).abs() < 1e-2);
 }
@@ -196,8 +199,10 @@ fn rooms_sharing_a_wall_line_are_repaired_not_failed() {
 fn bad_params_and_empty_boundary() {
     let (l, _) = fit(&[room()], 0.0, &FittingParams::default());
     let b = trace_boundary(&l).unwrap();
-    let mut p = FittingParams::default();
-    p.inlier_distance = f64::NAN;
+    let p = FittingParams {
+        inlier_distance: f64::NAN,
+        ..Default::default()
+    };
     assert!(matches!(
         fit_walls(&l, &b, &p),
         Err(FittingError::BadParam {
@@ -205,8 +210,10 @@ fn bad_params_and_empty_boundary() {
             ..
         })
     ));
-    let mut p = FittingParams::default();
-    p.min_inliers = 1;
+    let p = FittingParams {
+        min_inliers: 1,
+        ..Default::default()
+    };
     assert!(fit_walls(&l, &b, &p).is_err());
     let empty = fit_walls(&l, &Boundary::default(), &FittingParams::default()).unwrap();
     assert!(empty.polygons.is_empty() && empty.walls.is_empty());
@@ -264,6 +271,12 @@ fn apse_room_with_round_column_under_noise() {
                 .unwrap_or_else(|| panic!("σ = {sigma}: no arc about {c:?} in {arcs:?}"));
             let rel = (found.1 - r).abs() / r;
             worst_radius[k] = worst_radius[k].max(rel);
+            eprintln!(
+                "σ = {:.0} mm: arc r = {r} m fitted {:.4} m ({:.3}%)",
+                sigma * 1e3,
+                found.1,
+                rel * 100.0
+            );
             assert!(rel < 0.02, "σ = {sigma}: radius {} for {r}", found.1);
         }
         let lines = f
