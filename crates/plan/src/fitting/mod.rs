@@ -270,9 +270,17 @@ fn rebuild_valid(
             match *p {
                 simple::Problem::Crossing(s, t) => {
                     for (r, i) in [s, t] {
-                        let of = &rebuilt[r].piece_of_point;
-                        to_undo.push((r, of[i]));
-                        to_undo.push((r, of[(i + 1) % of.len()]));
+                        // A segment belongs to the piece of its end point (a shared corner is
+                        // emitted by the piece before); a link from a run to a traced vertex
+                        // belongs to the run.
+                        let (of, pieces) = (&rebuilt[r].piece_of_point, &rebuilt[r].pieces);
+                        let end = of[(i + 1) % of.len()];
+                        let owner = if pieces[end].model.is_some() {
+                            end
+                        } else {
+                            of[i]
+                        };
+                        to_undo.push((r, owner));
                     }
                 }
                 simple::Problem::BadRing(r) => to_undo.extend(whole(r)),

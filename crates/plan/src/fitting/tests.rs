@@ -193,6 +193,13 @@ fn rooms_sharing_a_wall_line_are_repaired_not_failed() {
     assert_eq!(f.polygons.len(), 2);
     assert_eq!(f.notes.len(), 1, "{:?}", f.notes);
     assert!(f.notes[0].contains("kept as traced"));
+    // The facing sides stay as traced: no wall piece lies on the shared line x ≈ 4.01.
+    assert!(!f
+        .walls
+        .iter()
+        .any(|w| w.points.iter().all(|p| (p[0] - 4.01).abs() < 0.005)));
+    // The other sides are still fitted.
+    assert!(f.walls.len() >= 6, "{} walls", f.walls.len());
 }
 
 #[test]
@@ -321,4 +328,37 @@ fn many_noisy_layouts_stay_valid() {
             }
         }
     }
+}
+
+#[test]
+fn an_invalid_traced_boundary_is_an_error_not_a_panic() {
+    use crate::boundary::{BoundaryPolygon, Ring};
+    let (l, _) = fit(&[room()], 0.0, &FittingParams::default());
+    // A bow tie over four mesh vertices: too few samples for any model, and self-crossing.
+    let near = |q: P2| {
+        (0..l.mesh.n_samples)
+            .min_by(|&a, &b| {
+                geom::dist(l.mesh.vertices[a], q).total_cmp(&geom::dist(l.mesh.vertices[b], q))
+            })
+            .unwrap() as u32
+    };
+    let vertices = vec![
+        near([0.0, 0.0]),
+        near([4.0, 3.0]),
+        near([4.0, 0.0]),
+        near([0.0, 3.0]),
+    ];
+    let bow = Boundary {
+        polygons: vec![BoundaryPolygon {
+            exterior: Ring {
+                vertices,
+                signed_area: 1.0,
+            },
+            holes: Vec::new(),
+        }],
+    };
+    assert!(matches!(
+        fit_walls(&l, &bow, &FittingParams::default()),
+        Err(FittingError::Invalid(_))
+    ));
 }
