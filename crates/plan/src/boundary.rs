@@ -247,10 +247,14 @@ impl Boundary {
     pub fn check(&self, labeled: &LabeledMesh) -> Result<(), BoundaryError> {
         let bad = |msg: String| Err(BoundaryError::NotWatertight(msg));
         let mesh = &labeled.mesh;
+        let n = mesh.triangles.len();
+        if labeled.inside.len() != n || mesh.neighbors.len() != n {
+            return bad(format!("{} labels for {n} triangles", labeled.inside.len()));
+        }
         let mut edges: HashMap<(u32, u32), i64> = HashMap::new();
         let mut inside_area = 0.0;
-        for t in 0..mesh.triangles.len() {
-            if !labeled.inside.get(t).copied().unwrap_or(false) {
+        for t in 0..n {
+            if !labeled.inside[t] {
                 continue;
             }
             inside_area += mesh.area(t);

@@ -48,7 +48,8 @@ pub struct CleanupReport {
 /// Relabels small regions and protrusions in place. Forced labels are never changed.
 pub fn clean_labels(labeled: &mut LabeledMesh, params: &CleanupParams) -> CleanupReport {
     let mut report = CleanupReport::default();
-    if labeled.inside.len() != labeled.mesh.triangles.len() {
+    let n = labeled.mesh.triangles.len();
+    if labeled.inside.len() != n || labeled.forced.len() != n || labeled.mesh.neighbors.len() != n {
         // A malformed labeling has nothing sensible to clean; the boundary stage reports it.
         return report;
     }
@@ -421,5 +422,8 @@ pub(crate) mod tests {
         let report = clean_labels(&mut l, &CleanupParams::default());
         assert_eq!(report, CleanupReport::default());
         assert_eq!(l, clean);
+        let b = trace_boundary(&l).unwrap();
+        b.check(&l).unwrap();
+        assert_eq!(b.polygons.len(), 1);
     }
 }
