@@ -362,3 +362,44 @@ fn an_invalid_traced_boundary_is_an_error_not_a_panic() {
         Err(FittingError::Invalid(_))
     ));
 }
+
+#[test]
+fn rooms_joined_by_a_door_keep_the_jambs() {
+    // Two 4 × 3 m rooms behind a 10 cm wall, joined by a 0.9 m door. The jamb faces hold only
+    // two samples each, too few for a model: they join neighbouring models by growing.
+    let plan = vec![
+        [0.0, 0.0],
+        [4.0, 0.0],
+        [4.0, 1.0],
+        [4.1, 1.0],
+        [4.1, 0.0],
+        [8.1, 0.0],
+        [8.1, 3.0],
+        [4.1, 3.0],
+        [4.1, 1.9],
+        [4.0, 1.9],
+        [4.0, 3.0],
+        [0.0, 3.0],
+    ];
+    let (_, f) = fit(
+        std::slice::from_ref(&plan),
+        0.003,
+        &FittingParams::default(),
+    );
+    assert_eq!(f.polygons.len(), 1);
+    let ext = &f.polygons[0].exterior;
+    let outer = [[0.0, 0.0], [8.1, 0.0], [8.1, 3.0], [0.0, 3.0]];
+    let err = corner_error(&outer, ext);
+    let jambs = corner_error(&plan, ext);
+    let area = geom::ring_signed_area(ext);
+    eprintln!(
+        "door plan (σ = 3 mm): outer corners {:.1} mm, all corners incl. jambs {:.1} mm, area {:.4} m² (true {:.4})",
+        err * 1e3,
+        jambs * 1e3,
+        area,
+        geom::ring_signed_area(&plan)
+    );
+    assert!(err < 0.01);
+    assert!(jambs < 0.02);
+    assert!((area - geom::ring_signed_area(&plan)).abs() < 0.05);
+}
