@@ -48,7 +48,8 @@ pub struct CleanupReport {
 /// Relabels small regions and protrusions in place. Forced labels are never changed.
 pub fn clean_labels(labeled: &mut LabeledMesh, params: &CleanupParams) -> CleanupReport {
     let mut report = CleanupReport::default();
-    if labeled.inside.len() != labeled.mesh.triangles.len() {
+    let n = labeled.mesh.triangles.len();
+    if labeled.inside.len() != n || labeled.forced.len() != n || labeled.mesh.neighbors.len() != n {
         // A malformed labeling has nothing sensible to clean; the boundary stage reports it.
         return report;
     }
@@ -125,13 +126,13 @@ fn flip_small_regions(
     let n = mesh.triangles.len();
     let mut count = vec![0usize; n];
     let mut area = vec![0.0f64; n];
-    for t in 0..n {
-        count[root[t] as usize] += 1;
-        area[root[t] as usize] += mesh.area(t);
+    for (t, &r) in root.iter().enumerate() {
+        count[r as usize] += 1;
+        area[r as usize] += mesh.area(t);
     }
     let mut flipped = 0;
-    for t in 0..n {
-        let r = root[t] as usize;
+    for (t, &r) in root.iter().enumerate() {
+        let r = r as usize;
         if labeled.inside[t] == label
             && labeled.forced[t].is_none()
             && count[r] < params.min_region_triangles
@@ -282,7 +283,7 @@ pub(crate) mod tests {
             }
         }
         let mesh = Mesh::build(&pts, &normals).unwrap();
-        (label_by_rings(mesh, &[room.clone()]), room)
+        (label_by_rings(mesh, std::slice::from_ref(&room)), room)
     }
 
     #[test]
@@ -360,8 +361,10 @@ pub(crate) mod tests {
             hole.signed_area
         );
         // Without the area guard the paper's rule fills the column in.
-        let mut paper = CleanupParams::default();
-        paper.max_hole_area = f64::INFINITY;
+        let paper = CleanupParams {
+            max_hole_area: f64::INFINITY,
+            ..Default::default()
+        };
         let mut l2 = l.clone();
         let r2 = clean_labels(&mut l2, &paper);
         assert_eq!(r2.small_outside_flipped, column_triangles);
@@ -380,7 +383,7 @@ pub(crate) mod tests {
         pts.push([4.3, 1.5]);
         normals.push([1.0, 0.0]);
         let mesh = Mesh::build(&pts, &normals).unwrap();
-        let mut l = label_by_rings(mesh, &[room.clone()]);
+        let mut l = label_by_rings(mesh, std::slice::from_ref(&room));
         let mut planted = 0;
         for t in 0..l.inside.len() {
             let c = l.mesh.corners(t);
@@ -394,8 +397,10 @@ pub(crate) mod tests {
         }
         assert_eq!(planted, 1, "expected one spike triangle");
         let before = inside_area(&l);
-        let mut no_peel = CleanupParams::default();
-        no_peel.remove_protrusions = false;
+        let no_peel = CleanupParams {
+            remove_protrusions: false,
+            ..Default::default()
+        };
         let mut kept = l.clone();
         assert_eq!(clean_labels(&mut kept, &no_peel).protrusions_flipped, 0);
         assert_eq!(
@@ -417,5 +422,8 @@ pub(crate) mod tests {
         let report = clean_labels(&mut l, &CleanupParams::default());
         assert_eq!(report, CleanupReport::default());
         assert_eq!(l, clean);
+        let b = trace_boundary(&l).unwrap();
+        b.check(&l).unwrap();
+        assert_eq!(b.polygons.len(), 1);
     }
 }

@@ -137,8 +137,63 @@ pub fn fit_walls(
     params: &FittingParams,
 ) -> Result<FittedStory, FittingError> {
     check_params(params)?;
+    let (samples, rings, exterior_of) = collect_samples(labeled, boundary);
+    let consensus = ransac::find_models(&samples, params);
+    let models = consensus.models;
+    let mut assigned = consensus.assigned;
+    grow::reset_small_components(&samples, &mut assigned, params.min_component);
+    grow::grow(&samples, &models, &mut assigned, params.grow_hops);
+
+    let ring_pos: Vec<Vec<P2>> = rings
+        .iter()
+        .map(|r| r.iter().map(|&s| samples.pos[s]).collect())
+        .collect();
+    let ring_assign: Vec<Vec<Option<usize>>> = rings
+        .iter()
+        .map(|r| r.iter().map(|&s| assigned[s]).collect())
+        .collect();
+    let (rebuilt, undone) = rebuild_valid(&ring_pos, ring_assign, &exterior_of, &models, params)?;
+    let mut notes = Vec::new();
+    if !undone.is_empty() {
+        let at: Vec<String> = undone
+            .iter()
+            .take(5)
+            .map(|p| format!("({:.2}, {:.2})", p[0], p[1]))
+            .collect();
+        notes.push(format!(
+            "fitting: {} wall piece(s) kept as traced because their rebuilt edges crossed, near local {}{}",
+            undone.len(),
+            at.join(", "),
+            if undone.len() > 5 { ", …" } else { "" }
+        ));
+    }
+    let mut polygons: Vec<Polygon> = Vec::new();
+    for (r, ext) in exterior_of.iter().enumerate() {
+        let points = rebuilt[r].points.clone();
+        match (ext, polygons.last_mut()) {
+            (Some(_), Some(p)) => p.holes.push(points),
+            _ => polygons.push(Polygon {
+                exterior: points,
+                holes: Vec::new(),
+            }),
+        }
+    }
+    let walls = rebuilt.into_iter().flat_map(|r| r.walls).collect();
+    Ok(FittedStory {
+        polygons,
+        walls,
+        notes,
+    })
+}
+
+/// The boundary's vertices as samples, each ring as a list of sample indices, and for each
+/// ring the index of its exterior ring (`None` for exteriors). Rings are listed polygon by
+/// polygon, exterior first.
+fn collect_samples(
+    labeled: &LabeledMesh,
+    boundary: &Boundary,
+) -> (BoundarySamples, Vec<Vec<usize>>, Vec<Option<usize>>) {
     let mesh = &labeled.mesh;
-    // Rings as sample indices; `exterior_of[r]` names a hole's exterior ring.
     let mut index: HashMap<u32, usize> = HashMap::new();
     let mut samples = BoundarySamples {
         pos: Vec::new(),
@@ -159,6 +214,7 @@ pub fn fit_walls(
                 .map(|&v| {
                     *index.entry(v).or_insert_with(|| {
                         let p = mesh.vertices.get(v as usize).copied().unwrap_or([0.0; 2]);
+                        // Box corners carry no normal.
                         let is_sample = (v as usize) < mesh.n_samples;
                         let n = mesh.normals.get(v as usize).copied();
                         samples.pos.push(p);
@@ -181,50 +237,55 @@ pub fn fit_walls(
             exterior_of.push((j > 0).then_some(ext));
         }
     }
-    let consensus = ransac::find_models(&samples, params);
-    let models = consensus.models;
-    let mut assigned = consensus.assigned;
-    grow::reset_small_components(&samples, &mut assigned, params.min_component);
-    grow::grow(&samples, &models, &mut assigned, params.grow_hops);
+    (samples, rings, exterior_of)
+}
 
-    let ring_pos: Vec<Vec<P2>> = rings
-        .iter()
-        .map(|r| r.iter().map(|&s| samples.pos[s]).collect())
-        .collect();
-    // Per ring, so that a repair undoes a model only where it went wrong.
-    let mut ring_assign: Vec<Vec<Option<usize>>> = rings
-        .iter()
-        .map(|r| r.iter().map(|&s| assigned[s]).collect())
-        .collect();
+/// Rebuilds every ring and, while the result is invalid, undoes the models of the pieces
+/// involved in each problem (per ring, so a model shared by other rooms survives there) and
+/// rebuilds again. Each round undoes at least one piece, so this ends; if a problem involves no
+/// model at all the traced boundary itself is invalid, which is an error. Returns the rings and
+/// the centre of every piece undone.
+fn rebuild_valid(
+    ring_pos: &[Vec<P2>],
+    mut ring_assign: Vec<Vec<Option<usize>>>,
+    exterior_of: &[Option<usize>],
+    models: &[model::Model],
+    params: &FittingParams,
+) -> Result<(Vec<rebuild::Rebuilt>, Vec<P2>), FittingError> {
     let mut undone: Vec<P2> = Vec::new();
-    let rebuilt = loop {
+    loop {
         let rebuilt: Vec<rebuild::Rebuilt> = ring_pos
             .iter()
             .zip(&ring_assign)
-            .map(|(pos, a)| rebuild::rebuild_ring(pos, a, &models, params))
+            .map(|(pos, a)| rebuild::rebuild_ring(pos, a, models, params))
             .collect();
         let points: Vec<Vec<P2>> = rebuilt.iter().map(|r| r.points.clone()).collect();
-        let problems = simple::problems(&points, &exterior_of);
+        let problems = simple::problems(&points, exterior_of);
         if problems.is_empty() {
-            break rebuilt;
+            return Ok((rebuilt, undone));
         }
+        let whole = |r: usize| (0..rebuilt[r].pieces.len()).map(move |k| (r, k));
         let mut to_undo: Vec<(usize, usize)> = Vec::new();
         for p in &problems {
             match *p {
                 simple::Problem::Crossing(s, t) => {
                     for (r, i) in [s, t] {
-                        let of = &rebuilt[r].piece_of_point;
-                        to_undo.push((r, of[i]));
-                        to_undo.push((r, of[(i + 1) % of.len()]));
+                        // A segment belongs to the piece of its end point (a shared corner is
+                        // emitted by the piece before); a link from a run to a traced vertex
+                        // belongs to the run.
+                        let (of, pieces) = (&rebuilt[r].piece_of_point, &rebuilt[r].pieces);
+                        let end = of[(i + 1) % of.len()];
+                        let owner = if pieces[end].model.is_some() {
+                            end
+                        } else {
+                            of[i]
+                        };
+                        to_undo.push((r, owner));
                     }
                 }
-                simple::Problem::BadRing(r) => {
-                    to_undo.extend((0..rebuilt[r].pieces.len()).map(|k| (r, k)));
-                }
+                simple::Problem::BadRing(r) => to_undo.extend(whole(r)),
                 simple::Problem::HoleOutside { hole, exterior } => {
-                    for r in [hole, exterior] {
-                        to_undo.extend((0..rebuilt[r].pieces.len()).map(|k| (r, k)));
-                    }
+                    to_undo.extend(whole(hole).chain(whole(exterior)));
                 }
             }
         }
@@ -250,41 +311,7 @@ pub fn fit_walls(
                 problems[0]
             )));
         }
-    };
-    let mut notes = Vec::new();
-    if !undone.is_empty() {
-        let at: Vec<String> = undone
-            .iter()
-            .take(5)
-            .map(|p| format!("({:.2}, {:.2})", p[0], p[1]))
-            .collect();
-        notes.push(format!(
-            "fitting: {} wall piece(s) kept as traced because their rebuilt edges crossed, near local {}{}",
-            undone.len(),
-            at.join(", "),
-            if undone.len() > 5 { ", …" } else { "" }
-        ));
     }
-    let mut polygons = Vec::new();
-    for (r, ext) in exterior_of.iter().enumerate() {
-        match ext {
-            None => polygons.push(Polygon {
-                exterior: rebuilt[r].points.clone(),
-                holes: Vec::new(),
-            }),
-            Some(_) => {
-                if let Some(p) = polygons.last_mut() {
-                    p.holes.push(rebuilt[r].points.clone());
-                }
-            }
-        }
-    }
-    let walls = rebuilt.into_iter().flat_map(|r| r.walls).collect();
-    Ok(FittedStory {
-        polygons,
-        walls,
-        notes,
-    })
 }
 
 #[cfg(test)]

@@ -20,7 +20,6 @@ use crate::fitting::circle::Circle;
 use crate::fitting::line::Line;
 use crate::fitting::model::Model;
 use crate::fitting::{BoundarySamples, FittingParams};
-use crate::geom;
 
 /// The models found and, per sample, the index of the model it belongs to.
 pub struct Consensus {
@@ -218,6 +217,22 @@ fn refine(
             break;
         }
     }
+    // A last fit on the inliers nearest the model: near a tangent the wider band also holds
+    // samples of the adjoining straight wall, which would bias a radius.
+    let core: Vec<_> = inliers
+        .iter()
+        .map(|&i| samples.pos[i])
+        .filter(|&p| model.distance(p) <= t / 2.0)
+        .collect();
+    if core.len() >= params.min_inliers {
+        if let Some(m) = model.refit(&core) {
+            let next = inliers_of(samples, pool, &m, t, min_cos);
+            if next.len() >= params.min_inliers {
+                model = m;
+                inliers = next;
+            }
+        }
+    }
     if let Model::Circle(_) = model {
         let pts: Vec<_> = inliers.iter().map(|&i| samples.pos[i]).collect();
         if let Some(l) = Line::fit(&pts).map(Model::Line) {
@@ -234,7 +249,7 @@ fn refine(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::P2;
+    use crate::geom::{self, P2};
 
     /// A path of samples (adjacent in order) with normals, closed into a loop.
     fn loop_samples(pos: Vec<P2>, normal: Vec<Option<P2>>) -> BoundarySamples {

@@ -181,11 +181,14 @@ pub fn rebuild_ring(
                         arc_points(c, s, &via, e, params.arc_chord_error)
                     }
                 };
-                walls.push(Wall {
-                    model: model.wall_model(),
-                    points: line.clone(),
-                    support: piece.positions.len(),
-                });
+                // A run that shrank to a point (one sample, no corners) is no wall.
+                if line.windows(2).any(|w| w[0] != w[1]) {
+                    walls.push(Wall {
+                        model: model.wall_model(),
+                        points: line.clone(),
+                        support: piece.positions.len(),
+                    });
+                }
                 line
             }
         };
