@@ -218,10 +218,13 @@ impl Histogram {
         cuts.into_iter().map(|(_, n)| order[..n].to_vec()).collect()
     }
 
-    /// The dense bins that are local maxima, ascending in z, located by the mean height of the
-    /// points in the bin and its two neighbours.
+    /// The dense bins that are local maxima, ascending in z. Each is located at the mean height
+    /// of its points and of its dense neighbours' (a floor straddling two bins); sparse
+    /// neighbours are left out, as their wall and furniture points would pull the level away.
     fn peaks(&self, dense: &[usize]) -> Vec<Peak> {
         let c = |i: usize| self.count.get(i).copied().unwrap_or(0);
+        let mut is_dense = vec![false; self.count.len()];
+        dense.iter().for_each(|&i| is_dense[i] = true);
         let mut bins: Vec<usize> = dense
             .iter()
             .copied()
@@ -233,9 +236,9 @@ impl Histogram {
         bins.sort_unstable();
         bins.into_iter()
             .map(|i| {
-                let window = i.saturating_sub(1)..(i + 2).min(self.count.len());
-                let n: u64 = self.count[window.clone()].iter().sum();
-                let s: f64 = self.sum[window].iter().sum();
+                let window = (i.saturating_sub(1)..(i + 2).min(self.count.len()))
+                    .filter(|&k| k == i || is_dense[k]);
+                let (n, s) = window.fold((0u64, 0f64), |(n, s), k| (n + c(k), s + self.sum[k]));
                 Peak {
                     z: s / n as f64,
                     count: c(i),

@@ -349,7 +349,7 @@ mod tests {
         assert_eq!(t.required(200), (12, 3));
         assert_eq!(t.required(50), (12, 3));
         let (filled, top) = t.required(20);
-        assert!(filled < 12 && filled >= 8, "{filled}");
+        assert!((8..12).contains(&filled), "{filled}");
         assert!(top <= 3);
         let paper = Tests {
             density_aware: false,

@@ -21,11 +21,37 @@ pub(super) struct Grid {
     /// `order[start[c]..start[c + 1]]` are the indices of the points in cell `c`.
     pub start: Vec<u32>,
     pub order: Vec<u32>,
+    /// Per cell: the heights of its own points.
+    pub summaries: Vec<Summary>,
+}
+
+/// The heights of one cell's own points: their range, and which height bins they fill.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Summary {
+    pub zmin: f32,
+    pub zmax: f32,
+    pub mask: u32,
+}
+
+impl Default for Summary {
+    fn default() -> Self {
+        Summary {
+            zmin: f32::INFINITY,
+            zmax: f32::NEG_INFINITY,
+            mask: 0,
+        }
+    }
 }
 
 impl Grid {
-    /// Sorts the points of `story` (those with `z_min <= z < z_max`) into a grid of `cell` metres.
-    pub fn build(xyz: &[[f32; 3]], story: &Story, cell: f64) -> Result<Grid, SamplesError> {
+    /// Sorts the points of `story` (those with `z_min <= z < z_max`) into a grid of `cell` metres,
+    /// and summarizes each cell's heights with `bin_of`, the height bin of a z.
+    pub fn build(
+        xyz: &[[f32; 3]],
+        story: &Story,
+        cell: f64,
+        bin_of: impl Fn(f32) -> Option<u32>,
+    ) -> Result<Grid, SamplesError> {
         if xyz.len() >= u32::MAX as usize {
             return Err(SamplesError::TooLarge(format!(
                 "{} points exceed the 2^32 a story can index",
@@ -56,27 +82,41 @@ impl Grid {
                 story.level, span[0], span[1]
             )));
         }
+        let inv = 1.0 / cell;
         let cell_of = |p: &[f32; 3]| {
-            let i = (((p[0] as f64 - origin[0]) / cell) as usize).min(nx - 1);
-            let j = (((p[1] as f64 - origin[1]) / cell) as usize).min(ny - 1);
-            j * nx + i
+            let i = (((p[0] as f64 - origin[0]) * inv) as usize).min(nx - 1);
+            let j = (((p[1] as f64 - origin[1]) * inv) as usize).min(ny - 1);
+            (j * nx + i) as u32
         };
-        // Counting sort: count per cell, prefix sums, then scatter. The cell of a point is
-        // recomputed in the scatter rather than stored, which saves 4 bytes a point.
+        // Counting sort: cells in parallel, then counts, prefix sums and a scatter. The
+        // counting pass also summarizes heights, reading the cloud in its own order.
+        let ids: Vec<u32> = xyz
+            .par_iter()
+            .map(|p| if in_story(p[2]) { cell_of(p) } else { u32::MAX })
+            .collect();
         let mut start = vec![0u32; nx * ny + 1];
-        for p in xyz.iter().filter(|p| in_story(p[2])) {
-            start[cell_of(p) + 1] += 1;
+        let mut summaries = vec![Summary::default(); nx * ny];
+        for (&c, p) in ids.iter().zip(xyz) {
+            if c == u32::MAX {
+                continue;
+            }
+            start[c as usize + 1] += 1;
+            let s = &mut summaries[c as usize];
+            s.zmin = s.zmin.min(p[2]);
+            s.zmax = s.zmax.max(p[2]);
+            if let Some(b) = bin_of(p[2]) {
+                s.mask |= 1 << b;
+            }
         }
         for c in 0..nx * ny {
             start[c + 1] += start[c];
         }
         let mut next = start.clone();
         let mut order = vec![0u32; bounds.n];
-        for (k, p) in xyz.iter().enumerate() {
-            if in_story(p[2]) {
-                let c = cell_of(p);
-                order[next[c] as usize] = k as u32;
-                next[c] += 1;
+        for (k, &c) in ids.iter().enumerate() {
+            if c != u32::MAX {
+                order[next[c as usize] as usize] = k as u32;
+                next[c as usize] += 1;
             }
         }
         Ok(Grid {
@@ -86,6 +126,7 @@ impl Grid {
             ny,
             start,
             order,
+            summaries,
         })
     }
 
@@ -136,10 +177,8 @@ impl Bounds {
         if !p.iter().all(|c| c.is_finite()) {
             self.non_finite += 1;
         } else if inside {
-            for k in 0..2 {
-                self.lo[k] = self.lo[k].min(p[k]);
-                self.hi[k] = self.hi[k].max(p[k]);
-            }
+            self.lo = [self.lo[0].min(p[0]), self.lo[1].min(p[1])];
+            self.hi = [self.hi[0].max(p[0]), self.hi[1].max(p[1])];
             self.n += 1;
         }
         self
@@ -175,7 +214,7 @@ mod tests {
             [0.11, 0.02, 5.0], // above the story
             [0.04, 0.04, 0.5],
         ];
-        let g = Grid::build(&xyz, &story, 0.05).unwrap();
+        let g = Grid::build(&xyz, &story, 0.05, |z| Some((z > 0.75) as u32)).unwrap();
         assert_eq!((g.nx, g.ny), (3, 2));
         assert_eq!(g.points(0, 0), &[0, 4]);
         assert_eq!(g.points(2, 0), &[1]);
@@ -183,5 +222,7 @@ mod tests {
         assert_eq!(g.order.len(), 4);
         assert_eq!(g.block(0, 0).count(), 4);
         assert_eq!(g.block(1, 0).count(), 6);
+        let s = g.summaries[0];
+        assert_eq!((s.zmin, s.zmax, s.mask), (0.5, 1.0, 0b11));
     }
 }

@@ -17,7 +17,7 @@ use crate::cloud::PointCloud;
 use crate::geom::P2;
 use crate::stories::Story;
 use cell::{Reject, Tests};
-use grid::Grid;
+use grid::{Grid, Summary};
 use views::Views;
 
 /// Parameters of [`sample_walls`].
@@ -119,13 +119,12 @@ pub fn sample_walls(
     params: &SamplesParams,
 ) -> Result<WallSamples, SamplesError> {
     check_params(params, story)?;
-    let grid = Grid::build(&cloud.xyz, story, params.cell_size)?;
     let tests = Tests::new(story, params);
+    let grid = Grid::build(&cloud.xyz, story, params.cell_size, |z| tests.bin_of(z))?;
     let views = Views::new(cloud, story);
     let scan = Scan {
         xyz: &cloud.xyz,
         grid: &grid,
-        summaries: summarize(&cloud.xyz, &grid, &tests),
         tests: &tests,
         views: &views,
         min_points: params.min_points.unwrap_or(ADAPTIVE_RANGE.0),
@@ -191,7 +190,7 @@ fn check_params(params: &SamplesParams, story: &Story) -> Result<(), SamplesErro
             format!("{} is not a positive number", params.min_wall_height),
         );
     }
-    if !(params.max_range > 0.0) {
+    if params.max_range.is_nan() || params.max_range <= 0.0 {
         return bad(
             "max_range",
             format!("{} is not a positive number", params.max_range),
@@ -221,7 +220,7 @@ fn check_params(params: &SamplesParams, story: &Story) -> Result<(), SamplesErro
             format!("{} is not within 0..=1", params.min_confidence),
         );
     }
-    if !(story.ceiling_z > story.floor_z) {
+    if !positive(story.ceiling_z - story.floor_z) {
         return bad(
             "story",
             format!(
@@ -261,44 +260,6 @@ fn describe_rejections(tally: &[usize; 6], min_points: usize, found: &[Found]) -
     why
 }
 
-/// The heights of one cell's own points: their range and which height bins they fill.
-#[derive(Debug, Clone, Copy)]
-struct Summary {
-    zmin: f32,
-    zmax: f32,
-    mask: u32,
-}
-
-impl Default for Summary {
-    fn default() -> Self {
-        Summary {
-            zmin: f32::INFINITY,
-            zmax: f32::NEG_INFINITY,
-            mask: 0,
-        }
-    }
-}
-
-/// Per-cell height summaries, one pass over the points in cell order.
-fn summarize(xyz: &[[f32; 3]], grid: &Grid, tests: &Tests) -> Vec<Summary> {
-    let mut out = vec![Summary::default(); grid.nx * grid.ny];
-    out.par_chunks_mut(grid.nx)
-        .enumerate()
-        .for_each(|(j, row)| {
-            for (i, s) in row.iter_mut().enumerate() {
-                for &k in grid.points(i, j) {
-                    let z = xyz[k as usize][2];
-                    s.zmin = s.zmin.min(z);
-                    s.zmax = s.zmax.max(z);
-                    if let Some(b) = tests.bin_of(z) {
-                        s.mask |= 1 << b;
-                    }
-                }
-            }
-        });
-    out
-}
-
 /// A wall-like cell: its neighbourhood count and, when it passed every test, its sample and
 /// the distance to its nearest scanner.
 struct Found {
@@ -326,7 +287,6 @@ struct Scratch {
 struct Scan<'a> {
     xyz: &'a [[f32; 3]],
     grid: &'a Grid,
-    summaries: Vec<Summary>,
     tests: &'a Tests,
     views: &'a Views<'a>,
     /// The count threshold applied while scanning; the adaptive one is applied afterwards.
@@ -364,7 +324,7 @@ impl Scan<'_> {
         for (a, b) in g.block(i, j) {
             let c = b * g.nx + a;
             n += (g.start[c + 1] - g.start[c]) as usize;
-            let m = &self.summaries[c];
+            let m = &g.summaries[c];
             block.zmin = block.zmin.min(m.zmin);
             block.zmax = block.zmax.max(m.zmax);
             block.mask |= m.mask;

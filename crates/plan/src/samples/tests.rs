@@ -215,3 +215,39 @@ fn bad_input_gets_errors_not_panics() {
     let err = sample_walls(&floor, &story(), &p).unwrap_err();
     assert!(err.to_string().contains("too short"), "{err}");
 }
+
+#[test]
+fn a_mobile_trajectory_orients_normals_and_gives_the_path() {
+    use crate::cloud::TrajectorySample;
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let (xyz, _) = wall(&mut rng, 0.0, 0.012, 800.0, 0);
+    // The scanner walks along y = -1 from x = 0 to 2 in 20 s; each point is seen when the
+    // scanner passes its x.
+    let time: Vec<f64> = xyz.iter().map(|p| 10.0 * p[0] as f64).collect();
+    let traj: Vec<TrajectorySample> = (0..=20)
+        .map(|k| TrajectorySample {
+            t: k as f64,
+            position: [0.1 * k as f64, -1.0, 1.5],
+            quaternion: [1.0, 0.0, 0.0, 0.0],
+        })
+        .collect();
+    let cloud = PointCloud {
+        xyz,
+        time,
+        viewpoints: Viewpoints::Trajectory(traj),
+        ..Default::default()
+    };
+    cloud.check().unwrap();
+    let out = sample_walls(&cloud, &story(), &SamplesParams::default()).unwrap();
+    assert!(out.samples.len() >= 30);
+    assert_eq!(out.path.len(), 21);
+    // Viewpoints every 0.5 m along the 2 m path.
+    assert_eq!(out.viewpoints.len(), 5, "{:?}", out.viewpoints);
+    for s in &out.samples {
+        assert!((s.normal[1] + 1.0).abs() < 0.01, "{s:?}");
+        assert!(!s.seen_from.is_empty());
+        // Seen from the listed viewpoint nearest along the path.
+        let v = out.viewpoints[s.seen_from[0] as usize];
+        assert!((v[0] - s.pos[0]).abs() <= 0.6, "{s:?} from {v:?}");
+    }
+}
