@@ -98,8 +98,13 @@ pub fn plan(
     for (i, story) in stories.iter().enumerate() {
         let at = |k: f64| (i as f64 + k) / stories.len() as f64;
         match plan_story(cloud, story, params, progress, &mut timings, at) {
-            Ok((story_plan, used)) => {
+            Ok((story_plan, used, story_notes)) => {
                 min_points_used.push(used);
+                notes.extend(
+                    story_notes
+                        .into_iter()
+                        .map(|n| format!("story {}: {n}", story.level)),
+                );
                 plans.push(story_plan);
             }
             Err(PlanError::Cancelled) => return Err(PlanError::Cancelled),
@@ -148,7 +153,7 @@ fn plan_story(
     progress: &mut dyn Progress,
     timings: &mut Timings,
     at: impl Fn(f64) -> f64,
-) -> Result<(StoryPlan, usize), PlanError> {
+) -> Result<(StoryPlan, usize, Vec<String>), PlanError> {
     let mut step = |stage: Stage, k: f64| {
         progress.report(stage, at(k));
         if progress.cancelled() {
@@ -184,5 +189,5 @@ fn plan_story(
         walls: fitted.walls,
         samples: samples.samples.iter().map(|s| s.pos).collect(),
     };
-    Ok((plan, samples.min_points_used))
+    Ok((plan, samples.min_points_used, fitted.notes))
 }
