@@ -135,6 +135,21 @@ pub struct LabelingReport {
     pub ties: usize,
     /// Why the harmonic labels were used instead of the eigenvector, when they were.
     pub fallback: Option<String>,
+    /// Wall time of each phase.
+    pub timings: LabelingTimings,
+}
+
+/// Wall time of each labeling phase, in milliseconds.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct LabelingTimings {
+    /// Delaunay triangulation.
+    pub mesh_ms: f64,
+    /// Poles and edge weights.
+    pub graph_ms: f64,
+    /// Hard constraints (segment walks).
+    pub constraints_ms: f64,
+    /// Assembly, factorization, eigen and harmonic solves.
+    pub solve_ms: f64,
 }
 
 /// Triangulates the samples and labels every triangle inside or outside.
@@ -148,6 +163,17 @@ pub fn label_with_report(
     params: &LabelingParams,
 ) -> Result<(LabeledMesh, LabelingReport), LabelingError> {
     check_params(params)?;
+    let clock = std::time::Instant::now();
+    let mut lap = {
+        let mut last = clock.elapsed();
+        move || {
+            let now = clock.elapsed();
+            let ms = (now - last).as_secs_f64() * 1e3;
+            last = now;
+            ms
+        }
+    };
+    let mut timings = LabelingTimings::default();
     let points: Vec<_> = samples.samples.iter().map(|s| s.pos).collect();
     let normals: Vec<_> = samples.samples.iter().map(|s| s.normal).collect();
     let mesh = match Mesh::build(&points, &normals) {
@@ -157,13 +183,17 @@ pub fn label_with_report(
     if collinear(&mesh.vertices[..mesh.n_samples]) {
         return Err(LabelingError::Collinear(mesh.n_samples));
     }
+    timings.mesh_ms = lap();
     let graph = weights::build_graph(&mesh, params.adjacent_poles_only);
+    timings.graph_ms = lap();
     let cons = constraints::hard_constraints(&mesh, samples, params.min_rays, params.ray_fraction);
+    timings.constraints_ms = lap();
     let nt = mesh.triangles.len();
     let reduced = spectral::Reduced::new(nt, &graph.edges, &cons.forced);
     let want_eigen = params.solver == Solver::Eigen;
     let sol =
         spectral::solve(&reduced, want_eigen, params.dense_below).map_err(LabelingError::Solver)?;
+    timings.solve_ms = lap();
 
     let harmonic = signs(&reduced, &graph, &sol.harmonic);
     let mut report = LabelingReport {
@@ -188,6 +218,7 @@ pub fn label_with_report(
         disagreement: None,
         ties: harmonic.1,
         fallback: None,
+        timings,
     };
     let mut inside = harmonic.0.clone();
     if want_eigen {
@@ -202,7 +233,7 @@ pub fn label_with_report(
                     .filter(|&t| eigen.0[t] || harmonic.0[t])
                     .map(|t| mesh.area(t))
                     .sum::<f64>();
-                let disagreement = if union > 0.0 { differ / union } else { 0.0 };
+                let disagreement = if union > 0.0 { differ / union + 0.0 } else { 0.0 };
                 report.disagreement = Some(disagreement);
                 if disagreement > params.max_disagreement {
                     report.fallback = Some(format!(
@@ -304,3 +335,6 @@ fn signs(r: &spectral::Reduced, g: &weights::Graph, z: &[f64]) -> (Vec<bool>, us
     }
     (inside, tied.len())
 }
+
+#[cfg(test)]
+mod tests;

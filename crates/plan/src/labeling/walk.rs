@@ -91,6 +91,17 @@ pub(crate) fn walk(
     WalkEnd::Missed
 }
 
+impl Mesh {
+    /// The triangle containing `p` (either one when `p` is on an edge), found by walking from
+    /// triangle `hint`; `None` when `p` is outside the mesh. Nearby hints make it fast.
+    pub fn locate(&self, p: P2, hint: usize) -> Option<usize> {
+        if self.triangles.is_empty() || !(p[0].is_finite() && p[1].is_finite()) {
+            return None;
+        }
+        locate(self, p, hint.min(self.triangles.len() - 1) as u32).map(|t| t as usize)
+    }
+}
+
 /// The centroid of triangle `t`.
 pub(crate) fn centroid(mesh: &Mesh, t: u32) -> P2 {
     let [a, b, c] = mesh.corners(t as usize);
