@@ -43,10 +43,7 @@ impl Floor {
         let [x0, y0, x1, y1] = self.room(i, j);
         let in_room = p[0] > x0 && p[0] < x1 && p[1] > y0 && p[1] < y1;
         // The door to the right neighbour.
-        let in_door = i + 1 < self.cols
-            && p[0] >= x1
-            && p[1] > y0 + DOOR.0
-            && p[1] < y0 + DOOR.1;
+        let in_door = i + 1 < self.cols && p[0] >= x1 && p[1] > y0 + DOOR.0 && p[1] < y0 + DOOR.1;
         in_room || in_door
     }
 }
@@ -88,7 +85,14 @@ fn samples(f: &Floor, poses: bool, noise: f64) -> WallSamples {
             let seen = |ids: &[u32]| if poses { ids.to_vec() } else { vec![] };
             viewpoints.push([(x0 + x1) / 2.0 + 0.3, (y0 + y1) / 2.0 - 0.2]);
             push_segment(&mut out, [x0, y0], [x1, y0], [0.0, 1.0], seen(&[me]), noise);
-            push_segment(&mut out, [x1, y1], [x0, y1], [0.0, -1.0], seen(&[me]), noise);
+            push_segment(
+                &mut out,
+                [x1, y1],
+                [x0, y1],
+                [0.0, -1.0],
+                seen(&[me]),
+                noise,
+            );
             // Left and right walls, with door gaps toward neighbours.
             let door = |has: bool, x: f64, n: P2, out: &mut Vec<WallSample>| {
                 if has {
@@ -104,7 +108,14 @@ fn samples(f: &Floor, poses: bool, noise: f64) -> WallSamples {
                 // Door jambs through the wall, seen from both rooms.
                 let both = seen(&[me, me + 1]);
                 let (ya, yb) = (y0 + DOOR.0, y0 + DOOR.1);
-                push_segment(&mut out, [x1, ya], [x1 + T, ya], [0.0, 1.0], both.clone(), noise);
+                push_segment(
+                    &mut out,
+                    [x1, ya],
+                    [x1 + T, ya],
+                    [0.0, 1.0],
+                    both.clone(),
+                    noise,
+                );
                 push_segment(&mut out, [x1, yb], [x1 + T, yb], [0.0, -1.0], both, noise);
             }
         }
@@ -131,7 +142,11 @@ fn main() {
     let poses = !args.iter().any(|a| a == "--no-poses");
     let mut params = LabelingParams::default();
     if let Some(s) = value("--solver") {
-        params.solver = if s == "harmonic" { Solver::Harmonic } else { Solver::Eigen };
+        params.solver = if s == "harmonic" {
+            Solver::Harmonic
+        } else {
+            Solver::Eigen
+        };
     }
     if let Some(n) = value("--dense-below").and_then(|s| s.parse().ok()) {
         params.dense_below = n;
@@ -158,7 +173,9 @@ fn main() {
                 -0.5 + (ext[2] + 1.0) * (a as f64 + 0.5) / n as f64,
                 -0.5 + (ext[3] + 1.0) * (b as f64 + 0.5) / n as f64,
             ];
-            let Some(t) = l.mesh.locate(p, hint) else { continue };
+            let Some(t) = l.mesh.locate(p, hint) else {
+                continue;
+            };
             hint = t;
             let (x, y) = (l.inside[t], floor.inside(p));
             both += (x && y) as usize;

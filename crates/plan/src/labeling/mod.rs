@@ -23,8 +23,9 @@ pub struct LabelingParams {
     pub ray_fraction: f64,
     /// Use only pole pairs that share an edge as negative edges (reading (b) of the design note).
     pub adjacent_poles_only: bool,
-    /// Node count below which the eigenproblem is solved densely (design note §3 suggests ~3000;
-    /// measured here, the sparse shift-invert path is already faster above a few hundred nodes).
+    /// Node count below which the eigenproblem is solved densely (design note §3 suggests ~3000).
+    /// Measured (release, 2 cores): sparse shift-invert takes under 1 ms at 560 triangles where
+    /// dense takes 34 ms, and 6 ms at 4.7k where dense takes 7.4 s; so dense only for tiny graphs.
     pub dense_below: usize,
     /// Use the harmonic labels when they disagree with the eigenvector's on more than this
     /// fraction of the inside area (design note §3: 2%).
@@ -47,7 +48,7 @@ impl Default for LabelingParams {
             min_rays: 10,
             ray_fraction: 0.5,
             adjacent_poles_only: false,
-            dense_below: 800,
+            dense_below: 200,
             max_disagreement: 0.02,
             solver: Solver::Eigen,
         }
@@ -233,7 +234,11 @@ pub fn label_with_report(
                     .filter(|&t| eigen.0[t] || harmonic.0[t])
                     .map(|t| mesh.area(t))
                     .sum::<f64>();
-                let disagreement = if union > 0.0 { differ / union + 0.0 } else { 0.0 };
+                let disagreement = if union > 0.0 {
+                    differ / union + 0.0
+                } else {
+                    0.0
+                };
                 report.disagreement = Some(disagreement);
                 if disagreement > params.max_disagreement {
                     report.fallback = Some(format!(
@@ -282,7 +287,7 @@ fn check_params(p: &LabelingParams) -> Result<(), LabelingError> {
             why: "must be at least 1".into(),
         });
     }
-    if !(p.max_disagreement >= 0.0) {
+    if p.max_disagreement.is_nan() || p.max_disagreement < 0.0 {
         return Err(LabelingError::BadParam {
             name: "max_disagreement",
             why: format!("{} is not a non-negative fraction", p.max_disagreement),

@@ -36,7 +36,10 @@ fn rect_ring(r: [f64; 4]) -> Vec<P2> {
 /// IoU of the labeled inside area against `truth`, measured on a fine grid of points.
 fn iou(l: &LabeledMesh, truth: impl Fn(P2) -> bool) -> f64 {
     let (mut both, mut either) = (0usize, 0usize);
-    let (lo, hi) = (l.mesh.vertices[l.mesh.n_samples], l.mesh.vertices[l.mesh.n_samples + 2]);
+    let (lo, hi) = (
+        l.mesh.vertices[l.mesh.n_samples],
+        l.mesh.vertices[l.mesh.n_samples + 2],
+    );
     let mut hint = 0;
     let steps = 200;
     for i in 0..steps {
@@ -91,12 +94,15 @@ fn square_room_without_poses_is_inside_from_geometry_alone() {
     for dense_below in [100_000, 0] {
         let (l, r) = label_with_report(&samples, &params(dense_below)).unwrap();
         check_invariants(&l, &r);
-        let expect = if dense_below == 0 { Method::SparseEigen } else { Method::DenseEigen };
+        let expect = if dense_below == 0 {
+            Method::SparseEigen
+        } else {
+            Method::DenseEigen
+        };
         assert_eq!(r.method, expect, "{:?}", r.fallback);
         assert_eq!(r.forced_inside, 0);
         assert!(r.negative_adjacent + r.negative_apart > 0);
         let score = iou(&l, |p| in_rect(p, ROOM));
-        eprintln!("room dense_below={dense_below} IoU {score:.4} {r:?}");
         assert!(score > 0.95, "IoU {score} ({dense_below})");
         assert!(r.disagreement.unwrap() < 0.02);
     }
@@ -115,7 +121,6 @@ fn square_room_with_a_pose_and_lines_of_sight() {
     assert!(r.inside_by_rays > 0);
     assert_eq!(r.rays, samples.samples.len());
     let score = iou(&l, |p| in_rect(p, ROOM));
-    eprintln!("room with pose IoU {score:.4} {r:?}");
     assert!(score > 0.95, "IoU {score}");
     // The harmonic solver labels the same room.
     samples.viewpoints = vec![[2.9, 0.6]];
@@ -195,7 +200,6 @@ fn two_rooms_with_a_thick_wall_and_a_door() {
         let (l, r) = label_with_report(&samples, &params(800)).unwrap();
         check_invariants(&l, &r);
         let score = iou(&l, truth);
-        eprintln!("two rooms poses={with_poses} IoU {score:.4} {r:?}");
         assert!(score > 0.95, "IoU {score}, poses {with_poses}, {r:?}");
     }
 }
@@ -233,7 +237,10 @@ fn bad_input_gives_clear_errors() {
         ray_fraction: 0.0,
         ..Default::default()
     };
-    assert!(matches!(label(&room, &bad), Err(LabelingError::BadParam { .. })));
+    assert!(matches!(
+        label(&room, &bad),
+        Err(LabelingError::BadParam { .. })
+    ));
     // A viewpoint index out of range or a NaN viewpoint is skipped, not a panic.
     let mut odd = room.clone();
     odd.samples[0].seen_from = vec![7];
