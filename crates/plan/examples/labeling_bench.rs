@@ -184,11 +184,15 @@ fn main() {
     }
     // Wall triangles labeled inside: all three corners on wall faces and the centroid in a wall.
     let mut bridges = 0;
+    let mut shown = Vec::new();
     for t in 0..l.inside.len() {
         let [a, b, c] = l.mesh.corners(t);
         let g = [(a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0];
         if l.inside[t] && !floor.inside(g) && !l.mesh.touches_corner(t) {
             bridges += 1;
+            if shown.len() < 5 {
+                shown.push(format!("({:.3}, {:.3})", g[0], g[1]));
+            }
         }
     }
     println!(
@@ -218,4 +222,7 @@ fn main() {
         "IoU {:.4}; inside triangles with centroid outside the truth: {bridges}",
         both as f64 / either.max(1) as f64
     );
+    if !shown.is_empty() {
+        println!("first of them at {}", shown.join(" "));
+    }
 }

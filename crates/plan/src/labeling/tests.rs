@@ -249,3 +249,43 @@ fn bad_input_gives_clear_errors() {
     let (_, r) = label_with_report(&odd, &LabelingParams::default()).unwrap();
     assert_eq!(r.rays_skipped, 2);
 }
+
+#[test]
+fn mobile_path_forces_the_triangles_it_crosses() {
+    let samples = WallSamples {
+        samples: ring_samples(&rect_ring(ROOM), 0.05, &[]),
+        path: vec![[0.5, 0.5], [3.5, 0.6], [3.4, 2.5], [0.7, 2.4]],
+        ..Default::default()
+    };
+    let (l, r) = label_with_report(&samples, &LabelingParams::default()).unwrap();
+    check_invariants(&l, &r);
+    assert!(r.inside_by_path > 0);
+    assert_eq!(r.forced_inside, r.inside_by_path);
+    let t = l.mesh.locate([2.0, 0.55], 0).unwrap();
+    assert_eq!(l.forced[t], Some(true));
+    assert!(iou(&l, |p| in_rect(p, ROOM)) > 0.95);
+}
+
+#[test]
+fn duplicate_and_non_finite_samples_do_not_panic() {
+    let mut s = ring_samples(&rect_ring(ROOM), 0.1, &[]);
+    // Exact duplicates merge.
+    let copy = s.clone();
+    s.extend(copy);
+    let samples = WallSamples {
+        samples: s.clone(),
+        ..Default::default()
+    };
+    let (l, r) = label_with_report(&samples, &LabelingParams::default()).unwrap();
+    check_invariants(&l, &r);
+    assert_eq!(r.samples, s.len() / 2);
+    s[3].pos = [f64::NAN, 1.0];
+    let bad = WallSamples {
+        samples: s,
+        ..Default::default()
+    };
+    assert!(matches!(
+        label(&bad, &LabelingParams::default()),
+        Err(LabelingError::Mesh(MeshError::BadCoordinate(_)))
+    ));
+}
