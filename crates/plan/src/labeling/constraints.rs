@@ -96,10 +96,9 @@ pub(crate) fn hard_constraints(
             || (vec![0u32; nt], 0usize, 0usize),
             |(mut counts, mut walked, mut skipped), s| {
                 for &v in &s.seen_from {
-                    let (Some(&a), Some(Some(start))) = (
-                        samples.viewpoints.get(v as usize),
-                        vp_tri.get(v as usize),
-                    ) else {
+                    let (Some(&a), Some(Some(start))) =
+                        (samples.viewpoints.get(v as usize), vp_tri.get(v as usize))
+                    else {
                         skipped += 1;
                         continue;
                     };
@@ -131,14 +130,14 @@ pub(crate) fn hard_constraints(
         }
     }
 
-    for t in 0..nt {
+    for (t, &evidence) in inside.iter().enumerate() {
         if mesh.touches_corner(t) {
             c.forced[t] = Some(false);
             c.outside += 1;
-            if inside[t] {
+            if evidence {
                 c.conflicts += 1;
             }
-        } else if inside[t] {
+        } else if evidence {
             c.forced[t] = Some(true);
         }
     }
@@ -216,7 +215,10 @@ mod tests {
         let mesh = Mesh::build(&pts, &[]).unwrap();
         let c = hard_constraints(&mesh, &ws, 10, 0.5);
         assert!(c.inside_path > 0);
-        assert!(c.conflicts > 0, "the path leaves the room into corner triangles");
+        assert!(
+            c.conflicts > 0,
+            "the path leaves the room into corner triangles"
+        );
         let t = locate(&mesh, [2.0, 2.0], 0).unwrap();
         assert_eq!(c.forced[t as usize], Some(true));
         assert_eq!(c.rays, 0);

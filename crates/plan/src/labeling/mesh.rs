@@ -91,15 +91,18 @@ impl Mesh {
         }
         // Bulk loading sorts the points along a space-filling order: much faster than inserting
         // 100k samples one by one.
-        let tri: DelaunayTriangulation<Tagged> = DelaunayTriangulation::bulk_load(tagged)
-            .map_err(|_| MeshError::BadCoordinate(lo))?;
+        let tri: DelaunayTriangulation<Tagged> =
+            DelaunayTriangulation::bulk_load(tagged).map_err(|_| MeshError::BadCoordinate(lo))?;
         // Samples first, in input order, then the corners.
         let mut kept: Vec<(u32, usize)> = tri
             .vertices()
             .map(|v| (v.data().id, v.fix().index()))
             .collect();
         kept.sort_unstable();
-        let n_samples = kept.iter().filter(|(id, _)| (*id as usize) < n_points).count();
+        let n_samples = kept
+            .iter()
+            .filter(|(id, _)| (*id as usize) < n_points)
+            .count();
         if n_samples < 3 {
             return Err(MeshError::TooFewSamples(n_samples));
         }

@@ -168,6 +168,7 @@ impl Reduced {
     }
 
     /// y = D̃^{-1/2} z: back from the normalised space.
+    #[cfg(test)]
     pub(crate) fn unnormalize(&self, z: &[f64]) -> Vec<f64> {
         z.iter().zip(&self.d).map(|(z, d)| z / d.sqrt()).collect()
     }
@@ -422,11 +423,14 @@ fn ritz(alpha: &[f64], beta: &[f64]) -> (f64, Vec<f64>) {
         }
     });
     let e = SymmetricEigen::new(t);
-    let (imax, theta) = e
-        .eigenvalues
-        .iter()
-        .enumerate()
-        .fold((0, f64::NEG_INFINITY), |b, (i, &x)| if x > b.1 { (i, x) } else { b });
+    let (imax, theta) =
+        e.eigenvalues
+            .iter()
+            .enumerate()
+            .fold(
+                (0, f64::NEG_INFINITY),
+                |b, (i, &x)| if x > b.1 { (i, x) } else { b },
+            );
     (theta, e.eigenvectors.column(imax).iter().copied().collect())
 }
 
@@ -436,7 +440,9 @@ pub(crate) mod tests {
 
     /// A small signed graph: a path 0-1-2-3-4-5 with one frustrating negative edge, node 0
     /// forced outside and node 5 forced inside.
-    fn toy() -> (Vec<(u32, u32, f64)>, Vec<Option<bool>>) {
+    type Edges = Vec<(u32, u32, f64)>;
+
+    fn toy() -> (Edges, Vec<Option<bool>>) {
         let edges = vec![
             (0, 1, 5.0),
             (1, 2, 3.0),
@@ -472,7 +478,11 @@ pub(crate) mod tests {
         for &(u, v, w) in edges {
             let (a, b) = (x[u as usize], x[v as usize]);
             // Σ_{w>0} w (a − b)² + Σ_{w<0} |w| (a + b)², and D = Σ|w| per node.
-            l += if w > 0.0 { w * (a - b).powi(2) } else { -w * (a + b).powi(2) };
+            l += if w > 0.0 {
+                w * (a - b).powi(2)
+            } else {
+                -w * (a + b).powi(2)
+            };
             d += w.abs() * (a * a + b * b);
         }
         (l, d)
@@ -500,7 +510,12 @@ pub(crate) mod tests {
                 .map(|((l, y), d)| (l - lambda * d * y).powi(2))
                 .sum::<f64>()
                 .sqrt();
-            let dy: f64 = y.iter().zip(&r.d).map(|(y, d)| (d * y).powi(2)).sum::<f64>().sqrt();
+            let dy: f64 = y
+                .iter()
+                .zip(&r.d)
+                .map(|(y, d)| (d * y).powi(2))
+                .sum::<f64>()
+                .sqrt();
             assert!(res <= 1e-8 * dy, "residual {res}");
             // The Rayleigh quotient on the full graph equals λ: the merge is exact.
             let x = expand(&r, &y);
@@ -541,8 +556,8 @@ pub(crate) mod tests {
             assert!(y[r.k] > 0.0);
             // L_FF y_F + b y_K = −σ D_FF y_F ≈ 0 on every free row.
             let ly = r.apply_l(&y);
-            for i in 0..r.k {
-                assert!(ly[i].abs() < 1e-6 * r.d[i] * y[r.k], "row {i}: {}", ly[i]);
+            for (i, (l, d)) in ly.iter().zip(&r.d).take(r.k).enumerate() {
+                assert!(l.abs() < 1e-6 * d * y[r.k], "row {i}: {l}");
             }
         }
     }

@@ -91,6 +91,17 @@ pub(crate) fn walk(
     WalkEnd::Missed
 }
 
+impl Mesh {
+    /// The triangle containing `p` (either one when `p` is on an edge), found by walking from
+    /// triangle `hint`; `None` when `p` is outside the mesh. Nearby hints make it fast.
+    pub fn locate(&self, p: P2, hint: usize) -> Option<usize> {
+        if self.triangles.is_empty() || !(p[0].is_finite() && p[1].is_finite()) {
+            return None;
+        }
+        locate(self, p, hint.min(self.triangles.len() - 1) as u32).map(|t| t as usize)
+    }
+}
+
 /// The centroid of triangle `t`.
 pub(crate) fn centroid(mesh: &Mesh, t: u32) -> P2 {
     let [a, b, c] = mesh.corners(t as usize);
@@ -217,7 +228,11 @@ mod tests {
     #[test]
     fn locate_finds_the_containing_triangle_from_any_hint() {
         let m = grid_mesh();
-        for hint in [0, m.triangles.len() as u32 / 2, m.triangles.len() as u32 - 1] {
+        for hint in [
+            0,
+            m.triangles.len() as u32 / 2,
+            m.triangles.len() as u32 - 1,
+        ] {
             for p in [[0.3, 0.2], [2.5, 2.5], [3.0, 1.0], [1.5, 3.0], [-1.0, 5.5]] {
                 let t = locate(&m, p, hint).unwrap();
                 assert!(contains(&m, t, p), "{p:?} not in {t}");
@@ -238,8 +253,7 @@ mod tests {
         ] {
             let start = locate(&m, a, 0).unwrap();
             let mut seen = Vec::new();
-            assert!(segment_triangles(&m, start, a, b, 0.0, 1.0, |t| seen
-                .push(t)));
+            assert!(segment_triangles(&m, start, a, b, 0.0, 1.0, |t| seen.push(t)));
             let mut dedup = seen.clone();
             dedup.sort_unstable();
             dedup.dedup();
@@ -263,7 +277,9 @@ mod tests {
         let start = locate(&m, a, 0).unwrap();
         let mut seen = Vec::new();
         segment_triangles(&m, start, a, b, 0.25, 0.75, |t| seen.push(t));
-        assert!(!seen.iter().any(|&t| contains(&m, t, a) || contains(&m, t, b)));
+        assert!(!seen
+            .iter()
+            .any(|&t| contains(&m, t, a) || contains(&m, t, b)));
         assert!(seen.iter().any(|&t| contains(&m, t, [2.0, 0.3])));
     }
 }

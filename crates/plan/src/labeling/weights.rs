@@ -135,8 +135,8 @@ pub(crate) fn build_graph(mesh: &Mesh, adjacent_poles_only: bool) -> Graph {
             let (s1, s2) = (tri[(k + 1) % 3] as usize, tri[(k + 2) % 3] as usize);
             let edge = geom::sub(mesh.vertices[s2], mesh.vertices[s1]);
             let cos_phi = cos_phi_adjacent(mesh, u as usize, k, v as usize);
-            let theta = 2.0 * sin_theta(mesh.normals[s1], edge)
-                + 2.0 * sin_theta(mesh.normals[s2], edge);
+            let theta =
+                2.0 * sin_theta(mesh.normals[s1], edge) + 2.0 * sin_theta(mesh.normals[s2], edge);
             negative.push((u, v, -(4.0 + 4.0 * cos_phi + theta).exp()));
             graph.negative_adjacent += 1;
         } else if !adjacent_poles_only {
@@ -244,8 +244,12 @@ mod tests {
         let g = build_graph(&m, false);
         assert!(g.negative_adjacent + g.negative_apart > 0);
         let (pos, neg): (Vec<&(u32, u32, f64)>, Vec<_>) = g.edges.iter().partition(|e| e.2 > 0.0);
-        assert!(pos.iter().all(|e| e.2 >= 1.0 - 1e-12 && e.2 <= 8f64.exp() + 1e-6));
-        assert!(neg.iter().all(|e| e.2 <= -1.0 + 1e-12 && e.2 >= -(12f64.exp()) - 1e-3));
+        assert!(pos
+            .iter()
+            .all(|e| e.2 >= 1.0 - 1e-12 && e.2 <= 8f64.exp() + 1e-6));
+        assert!(neg
+            .iter()
+            .all(|e| e.2 <= -1.0 + 1e-12 && e.2 >= -(12f64.exp()) - 1e-3));
         // Poles lie on opposite sides of a wall: the room between the walls and beyond them.
         let centre = |t: u32| {
             let [a, b, c] = m.corners(t as usize);
@@ -271,7 +275,11 @@ mod tests {
             .map(|e| e.2)
             .collect();
         room.sort_by(f64::total_cmp);
-        assert!(room[room.len() / 2] > 6f64.exp(), "median {}", room[room.len() / 2]);
+        assert!(
+            room[room.len() / 2] > 6f64.exp(),
+            "median {}",
+            room[room.len() / 2]
+        );
         // One edge per pair.
         let mut pairs: Vec<_> = g.edges.iter().map(|e| (e.0, e.1)).collect();
         pairs.sort_unstable();
