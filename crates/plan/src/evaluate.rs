@@ -95,10 +95,16 @@ impl Evaluation {
         self.stories.iter().map(|s| s.iou).fold(1.0, f64::min)
     }
     pub fn max_boundary_p95(&self) -> f64 {
-        self.stories.iter().map(|s| s.boundary_p95).fold(0.0, f64::max)
+        self.stories
+            .iter()
+            .map(|s| s.boundary_p95)
+            .fold(0.0, f64::max)
     }
     pub fn min_completeness(&self) -> f64 {
-        self.stories.iter().map(|s| s.completeness).fold(1.0, f64::min)
+        self.stories
+            .iter()
+            .map(|s| s.completeness)
+            .fold(1.0, f64::min)
     }
     pub fn max_height_error(&self) -> f64 {
         self.stories
@@ -278,9 +284,10 @@ fn arc_score(p: &StoryPlan, center: P2, radius: f64) -> ArcScore {
         .walls
         .iter()
         .filter_map(|w| match w.model {
-            WallModel::Arc { center: c, radius: r } if geom::dist(c, center) <= 0.25 * radius => {
-                Some(r)
-            }
+            WallModel::Arc {
+                center: c,
+                radius: r,
+            } if geom::dist(c, center) <= 0.25 * radius => Some(r),
             _ => None,
         })
         .min_by(|a, b| (a - radius).abs().total_cmp(&(b - radius).abs()));
@@ -363,7 +370,7 @@ pub fn iou(a: &[Polygon], b: &[Polygon], dy: f64) -> f64 {
     let (lo, hi) = ys.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| {
         (l.min(y), h.max(y))
     });
-    if !(hi > lo) {
+    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
         return 0.0;
     }
     let rows = ((hi - lo) / dy).ceil() as usize;
@@ -391,7 +398,9 @@ fn ring_points(rings: &[Vec<P2>], step: f64) -> Vec<P2> {
         for k in 0..n {
             let (a, b) = (r[k], r[(k + 1) % n]);
             let m = (geom::dist(a, b) / step).ceil().max(1.0) as usize;
-            out.extend((0..m).map(|i| geom::add(a, geom::scale(geom::sub(b, a), i as f64 / m as f64))));
+            out.extend(
+                (0..m).map(|i| geom::add(a, geom::scale(geom::sub(b, a), i as f64 / m as f64))),
+            );
         }
     }
     out
@@ -447,7 +456,10 @@ impl SegmentGrid {
 
     /// True when a segment passes within `r` (at most one cell) of `p`.
     fn near(&self, p: P2, r: f64) -> bool {
-        let (ci, cj) = ((p[0] / self.cell).floor() as i64, (p[1] / self.cell).floor() as i64);
+        let (ci, cj) = (
+            (p[0] / self.cell).floor() as i64,
+            (p[1] / self.cell).floor() as i64,
+        );
         (ci - 1..=ci + 1).any(|i| {
             (cj - 1..=cj + 1).any(|j| {
                 self.cells.get(&(i, j)).is_some_and(|segs| {
@@ -548,7 +560,11 @@ pub fn watertight(polygons: &[Polygon]) -> Result<(), String> {
             while r.len() > 1 && r.first() == r.last() {
                 r.pop();
             }
-            let what = if hi == 0 { format!("polygon {pi} exterior") } else { format!("polygon {pi} hole {}", hi - 1) };
+            let what = if hi == 0 {
+                format!("polygon {pi} exterior")
+            } else {
+                format!("polygon {pi} hole {}", hi - 1)
+            };
             if r.len() < 3 {
                 return Err(format!("{what} has {} vertices", r.len()));
             }
@@ -558,7 +574,10 @@ pub fn watertight(polygons: &[Polygon]) -> Result<(), String> {
             if geom::ring_signed_area(&r).abs() <= 0.0 {
                 return Err(format!("{what} has zero area"));
             }
-            if hi > 0 && !crate::simulate::rects::point_in_ring(r[0], &p.exterior) && !p.exterior.contains(&r[0]) {
+            if hi > 0
+                && !crate::simulate::rects::point_in_ring(r[0], &p.exterior)
+                && !p.exterior.contains(&r[0])
+            {
                 return Err(format!("{what} is not inside its exterior"));
             }
             let n = r.len();
@@ -579,7 +598,7 @@ pub fn watertight(polygons: &[Polygon]) -> Result<(), String> {
             if a[1].max(b[1]) < c[1].min(d[1]) || c[1].max(d[1]) < a[1].min(b[1]) {
                 continue;
             }
-            let adjacent = ri == rj && (ki + 1) % n == kj || ri == rj && (kj + 1) % n == ki;
+            let adjacent = ri == rj && ((ki + 1) % n == kj || (kj + 1) % n == ki);
             match contact(a, b, c, d) {
                 Contact::None => {}
                 Contact::Touch if adjacent || ri != rj => {}
@@ -618,7 +637,10 @@ mod tests {
     fn walls_of(p: &Polygon) -> Vec<TruthWall> {
         let r = &p.exterior;
         (0..r.len())
-            .map(|k| TruthWall::Line { a: r[k], b: r[(k + 1) % r.len()] })
+            .map(|k| TruthWall::Line {
+                a: r[k],
+                b: r[(k + 1) % r.len()],
+            })
             .collect()
     }
 
@@ -658,7 +680,11 @@ mod tests {
     #[test]
     fn identical_polygons_score_perfectly() {
         let sq = square(0.0, 0.0, 4.0);
-        let e = evaluate(&plan_of(sq.clone(), [0.0; 3]), &truth_of(sq), &EvaluateParams::default());
+        let e = evaluate(
+            &plan_of(sq.clone(), [0.0; 3]),
+            &truth_of(sq),
+            &EvaluateParams::default(),
+        );
         let s = &e.stories[0];
         assert!((s.iou - 1.0).abs() < 1e-12, "{}", e.summary());
         assert!(s.boundary_p95 < 1e-12);
@@ -680,7 +706,11 @@ mod tests {
         assert!((s.boundary_max - 0.1).abs() < 1e-9);
         // Covered truth: the bottom and top walls except their first 5 cm (3.95 m each), and
         // the right wall's last 5 cm at each end, where the plan's top and bottom pass by.
-        assert!((s.completeness - 8.0 / 16.0).abs() < 0.002, "{}", s.completeness);
+        assert!(
+            (s.completeness - 8.0 / 16.0).abs() < 0.002,
+            "{}",
+            s.completeness
+        );
     }
 
     #[test]
@@ -694,7 +724,8 @@ mod tests {
     #[test]
     fn holes_reduce_area_and_iou() {
         let mut p = square(0.0, 0.0, 4.0);
-        p.holes.push(vec![[1.0, 1.0], [1.0, 3.0], [3.0, 3.0], [3.0, 1.0]]);
+        p.holes
+            .push(vec![[1.0, 1.0], [1.0, 3.0], [3.0, 3.0], [3.0, 1.0]]);
         let truth = truth_of(square(0.0, 0.0, 4.0));
         let e = evaluate(&plan_of(p, [0.0; 3]), &truth, &EvaluateParams::default());
         assert!((e.stories[0].iou - 12.0 / 16.0).abs() < 1e-9);
@@ -709,10 +740,15 @@ mod tests {
             holes: Vec::new(),
         };
         assert!(watertight(&[bow]).is_err());
-        let line = Polygon { exterior: vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]], holes: Vec::new() };
+        let line = Polygon {
+            exterior: vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]],
+            holes: Vec::new(),
+        };
         assert!(watertight(&[line]).is_err());
         let mut outside_hole = square(0.0, 0.0, 1.0);
-        outside_hole.holes.push(vec![[5.0, 5.0], [5.0, 6.0], [6.0, 6.0]]);
+        outside_hole
+            .holes
+            .push(vec![[5.0, 5.0], [5.0, 6.0], [6.0, 6.0]]);
         assert!(watertight(&[outside_hole]).is_err());
         // Two squares sharing one corner are fine; a closed repeated vertex is tolerated.
         let mut closed = square(0.0, 0.0, 1.0);
@@ -724,12 +760,20 @@ mod tests {
 
     #[test]
     fn arc_radius_error_and_missing_story() {
-        let arc = TruthWall::Arc { center: [0.0, 0.0], radius: 10.0, start: 0.0, sweep: 1.0 };
+        let arc = TruthWall::Arc {
+            center: [0.0, 0.0],
+            radius: 10.0,
+            start: 0.0,
+            sweep: 1.0,
+        };
         let mut truth = truth_of(square(0.0, 0.0, 4.0));
         truth.stories[0].walls.push(arc);
         let mut plan = plan_of(square(0.0, 0.0, 4.0), [0.0; 3]);
         plan.stories[0].walls.push(crate::plan::Wall {
-            model: WallModel::Arc { center: [0.05, 0.0], radius: 10.1 },
+            model: WallModel::Arc {
+                center: [0.05, 0.0],
+                radius: 10.1,
+            },
             points: vec![],
             support: 10,
         });

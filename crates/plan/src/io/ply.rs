@@ -328,10 +328,13 @@ impl<R: BufRead> Body<'_, R> {
     /// The next ASCII line, or a truncation error naming `what` was expected.
     fn next_line(&mut self, what: &dyn Fn() -> String) -> Result<(), ReadError> {
         self.text.clear();
-        let n = self
-            .reader
-            .read_line(&mut self.text)
-            .map_err(|e| invalid(self.path, e.to_string(), Some(format!("line {}", self.line + 1))))?;
+        let n = self.reader.read_line(&mut self.text).map_err(|e| {
+            invalid(
+                self.path,
+                e.to_string(),
+                Some(format!("line {}", self.line + 1)),
+            )
+        })?;
         self.line += 1;
         self.offset += n as u64;
         if n == 0 {
@@ -545,7 +548,13 @@ impl<R: BufRead> Body<'_, R> {
                 layout.scan.map(get),
                 layout.time.map(get),
             )
-            .map_err(|why| invalid(self.path, format!("vertex {k}: {why}"), Some(format!("line {line}"))))?;
+            .map_err(|why| {
+                invalid(
+                    self.path,
+                    format!("vertex {k}: {why}"),
+                    Some(format!("line {line}")),
+                )
+            })?;
         }
         Ok(())
     }
@@ -675,18 +684,26 @@ fn read_header(reader: &mut impl BufRead, path: &Path) -> Result<Header, ReadErr
             [] => {}
             ["end_header"] => break,
             ["comment", ..] | ["obj_info", ..] => {
-                comments.push(line.splitn(2, ' ').nth(1).unwrap_or("").trim().to_string())
+                comments.push(line.split_once(' ').map_or("", |x| x.1).trim().to_string())
             }
             ["format", name, version] => {
                 if !version.starts_with('1') {
-                    return Err(invalid(path, format!("unsupported PLY version {version}"), at(line_no)));
+                    return Err(invalid(
+                        path,
+                        format!("unsupported PLY version {version}"),
+                        at(line_no),
+                    ));
                 }
                 encoding = Some(match *name {
                     "ascii" => Encoding::Ascii,
                     "binary_little_endian" => Encoding::BinaryLittleEndian,
                     "binary_big_endian" => Encoding::BinaryBigEndian,
                     other => {
-                        return Err(invalid(path, format!("unknown PLY format `{other}`"), at(line_no)))
+                        return Err(invalid(
+                            path,
+                            format!("unknown PLY format `{other}`"),
+                            at(line_no),
+                        ))
                     }
                 });
             }
@@ -699,7 +716,11 @@ fn read_header(reader: &mut impl BufRead, path: &Path) -> Result<Header, ReadErr
                     ));
                 }
                 let count = count.parse::<u64>().map_err(|_| {
-                    invalid(path, format!("element `{name}` has an invalid count {count:?}"), at(line_no))
+                    invalid(
+                        path,
+                        format!("element `{name}` has an invalid count {count:?}"),
+                        at(line_no),
+                    )
                 })?;
                 elements.push(Element {
                     name: name.to_string(),
@@ -758,7 +779,10 @@ fn read_header(reader: &mut impl BufRead, path: &Path) -> Result<Header, ReadErr
                 if element.properties.iter().any(|p| p.name == property.name) {
                     return Err(invalid(
                         path,
-                        format!("element `{}` declares property `{}` twice", element.name, property.name),
+                        format!(
+                            "element `{}` declares property `{}` twice",
+                            element.name, property.name
+                        ),
                         at(line_no),
                     ));
                 }
@@ -766,11 +790,16 @@ fn read_header(reader: &mut impl BufRead, path: &Path) -> Result<Header, ReadErr
             }
             _ => {
                 let shown: String = line.chars().take(60).collect();
-                return Err(invalid(path, format!("unknown header line {shown:?}"), at(line_no)));
+                return Err(invalid(
+                    path,
+                    format!("unknown header line {shown:?}"),
+                    at(line_no),
+                ));
             }
         }
     }
-    let encoding = encoding.ok_or_else(|| invalid(path, "the header has no `format` line", None))?;
+    let encoding =
+        encoding.ok_or_else(|| invalid(path, "the header has no `format` line", None))?;
     Ok(Header {
         encoding,
         elements,
@@ -839,7 +868,12 @@ fn describe(header: &Header, vertex: &Element) -> String {
         .map(|p| match &p.kind {
             Kind::Scalar(s) => format!("{} {}", scalar_name(*s), p.name),
             Kind::List { count, item } => {
-                format!("list {} {} {}", scalar_name(*count), scalar_name(*item), p.name)
+                format!(
+                    "list {} {} {}",
+                    scalar_name(*count),
+                    scalar_name(*item),
+                    p.name
+                )
             }
         })
         .collect();
@@ -911,7 +945,11 @@ pub fn write_ply(path: &Path, cloud: &PointCloud, encoding: Encoding) -> Result<
 }
 
 /// Writes a cloud as PLY to any writer (see [`write_ply`]).
-pub fn write_ply_to(out: &mut impl Write, cloud: &PointCloud, encoding: Encoding) -> std::io::Result<()> {
+pub fn write_ply_to(
+    out: &mut impl Write,
+    cloud: &PointCloud,
+    encoding: Encoding,
+) -> std::io::Result<()> {
     let double = cloud.origin != [0.0; 3];
     let has_scan = !cloud.scan.is_empty();
     let has_time = !cloud.time.is_empty();
