@@ -216,37 +216,27 @@ fn mobile_scan_of_the_lobby() {
 
 #[test]
 fn simulation_ground_truth_scores_itself_perfectly() {
-    // The evaluation's own sanity: the truth, as a plan, matches the truth exactly. This is the
-    // one test here that passes before the pipeline exists.
-    let sim = scan(
-        BuildingKind::Office3Story,
-        ScanOptions {
-            points: 1000,
-            ..Default::default()
-        },
-    );
-    let e = evaluate(
-        &sim.truth.to_floor_plan(),
-        &sim.truth,
-        &EvaluateParams::default(),
-    );
-    assert!(e.min_iou() > 0.9999, "{}", e.summary());
-    assert!(e.max_boundary_p95() < 1e-3, "{}", e.summary());
-    assert!(e.min_completeness() > 0.999, "{}", e.summary());
-    assert!(e.all_watertight(), "{}", e.summary());
-    assert_eq!(e.max_height_error(), 0.0);
-    let lobby = scan(
-        BuildingKind::CurvedLobby,
-        ScanOptions {
-            points: 1000,
-            ..Default::default()
-        },
-    );
-    let e = evaluate(
-        &lobby.truth.to_floor_plan(),
-        &lobby.truth,
-        &EvaluateParams::default(),
-    );
-    assert!(e.worst_arc_error() < 1e-12, "{}", e.summary());
-    assert!(e.all_watertight(), "{}", e.summary());
+    // The evaluation's own sanity: each building's truth, as a plan, matches the truth exactly
+    // and is valid. These pass before the pipeline exists.
+    for (name, kind) in BuildingKind::ALL {
+        let sim = scan(
+            kind,
+            ScanOptions {
+                points: 1000,
+                ..Default::default()
+            },
+        );
+        let e = evaluate(
+            &sim.truth.to_floor_plan(),
+            &sim.truth,
+            &EvaluateParams::default(),
+        );
+        let s = e.summary();
+        assert!(e.min_iou() > 0.9999, "{name}\n{s}");
+        assert!(e.max_boundary_p95() < 1e-3, "{name}\n{s}");
+        assert!(e.min_completeness() > 0.999, "{name}\n{s}");
+        assert!(e.all_watertight(), "{name}\n{s}");
+        assert_eq!(e.max_height_error(), 0.0, "{name}");
+        assert!(e.worst_arc_error() < 1e-12, "{name}\n{s}");
+    }
 }
