@@ -21,8 +21,9 @@ const MAX_ELEMENTS: usize = 64;
 const MAX_PROPERTIES: usize = 1024;
 /// Vertices decoded per chunk on the binary path.
 const CHUNK_VERTICES: usize = 1 << 16;
-/// Never reserve room for more points than this up front, whatever the header says.
-const MAX_RESERVE: usize = 1 << 24;
+/// Never reserve room for more points than this up front. Counts below it are reserved exactly
+/// (after the file's size has confirmed them), so the arrays never grow by doubling.
+const MAX_RESERVE: usize = 1 << 30;
 /// Property names that give a point's scan index, in order of preference.
 const SCAN_NAMES: [&str; 3] = ["scan_index", "scan", "point_source_id"];
 
@@ -194,7 +195,7 @@ pub fn read_ply(path: &Path) -> Result<PointCloud, ReadError> {
     let layout = layout(vertex, path)?;
     check_counts(&header, vertex_pos, file_len, path)?;
 
-    let mut sink = Sink::new(vertex.count);
+    let mut sink = Sink::new(vertex.count, layout);
     let mut body = Body {
         path,
         header: &header,
@@ -220,11 +221,15 @@ struct Sink {
 }
 
 impl Sink {
-    fn new(count: u64) -> Sink {
+    /// `count` must already be checked against the file's size.
+    fn new(count: u64, layout: Layout) -> Sink {
         let reserve = (count as usize).min(MAX_RESERVE);
+        let maybe = |wanted: bool| if wanted { reserve } else { 0 };
         Sink {
             cloud: PointCloud {
                 xyz: Vec::with_capacity(reserve),
+                scan: Vec::with_capacity(maybe(layout.scan.is_some())),
+                time: Vec::with_capacity(maybe(layout.time.is_some())),
                 ..Default::default()
             },
             origin: None,
@@ -284,7 +289,12 @@ impl Sink {
 
     fn finish(mut self, details: String) -> PointCloud {
         self.cloud.origin = self.origin.unwrap_or_default();
-        self.cloud.xyz.shrink_to_fit();
+        // Only worth a reallocation when many points were skipped.
+        if self.cloud.xyz.capacity() > self.cloud.xyz.len() + self.cloud.xyz.len() / 8 {
+            self.cloud.xyz.shrink_to_fit();
+            self.cloud.scan.shrink_to_fit();
+            self.cloud.time.shrink_to_fit();
+        }
         self.cloud.source = SourceInfo {
             format: FORMAT.into(),
             details,
