@@ -118,7 +118,8 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
         sim.truth.stories.len(),
         match &sim.cloud.viewpoints {
             Viewpoints::Static(p) => format!("{} static scans", p.len()),
-            Viewpoints::Trajectory(s) => format!("a {} s trajectory", s.last().map_or(0.0, |s| s.t)),
+            Viewpoints::Trajectory(s) =>
+                format!("a {} s trajectory", s.last().map_or(0.0, |s| s.t)),
             Viewpoints::None => String::new(),
         }
     );

@@ -43,7 +43,10 @@ fn wrong_magic() {
     assert!(text.contains("byte offset 0"), "{text}");
     // Through format detection the file is not taken for PLY at all.
     let path = file("magic2", b"solid cube\n");
-    assert!(matches!(read_cloud(&path), Err(ReadError::UnknownFormat { .. })));
+    assert!(matches!(
+        read_cloud(&path),
+        Err(ReadError::UnknownFormat { .. })
+    ));
 }
 
 #[test]
@@ -54,7 +57,10 @@ fn truncated_binary_body() {
         bytes.extend(v.to_le_bytes());
     }
     let text = expect_error("truncated", &bytes, "truncated");
-    assert!(text.contains(&format!("byte offset {header_len}")), "{text}");
+    assert!(
+        text.contains(&format!("byte offset {header_len}")),
+        "{text}"
+    );
 }
 
 #[test]
@@ -84,7 +90,10 @@ fn billions_of_vertices() {
     bytes.extend([0u8; 120]);
     let start = std::time::Instant::now();
     expect_error("billions", &bytes, "declares 4000000000 vertices");
-    assert!(start.elapsed().as_secs() < 2, "must fail at once, not read or allocate");
+    assert!(
+        start.elapsed().as_secs() < 2,
+        "must fail at once, not read or allocate"
+    );
 }
 
 #[test]
@@ -97,8 +106,14 @@ fn missing_z() {
 
 #[test]
 fn absurd_property_count() {
-    let props: String = (0..5000).map(|k| format!("property float p{k}\n")).collect();
-    expect_error("many-props", header("ascii", 1, &props).as_bytes(), "more than 1024 properties");
+    let props: String = (0..5000)
+        .map(|k| format!("property float p{k}\n"))
+        .collect();
+    expect_error(
+        "many-props",
+        header("ascii", 1, &props).as_bytes(),
+        "more than 1024 properties",
+    );
 }
 
 #[test]
@@ -123,7 +138,11 @@ fn ascii_ends_early() {
     // Enough bytes for the declared count to be plausible, but the lines stop early.
     let mut bytes = header("ascii", 3, XYZ).into_bytes();
     bytes.extend(b"100 200 300\n400 500 600\n");
-    let text = expect_error("ascii-early", &bytes, "truncated: it ends before vertex 2 of 3");
+    let text = expect_error(
+        "ascii-early",
+        &bytes,
+        "truncated: it ends before vertex 2 of 3",
+    );
     assert!(text.contains("line 10"), "{text}");
     // Too few bytes for the count at all: caught before reading.
     let mut short = header("ascii", 30, XYZ).into_bytes();
@@ -140,7 +159,12 @@ fn unknown_format_and_type() {
     );
     expect_error(
         "type",
-        header("ascii", 1, "property float x\nproperty float y\nproperty quad z\n").as_bytes(),
+        header(
+            "ascii",
+            1,
+            "property float x\nproperty float y\nproperty quad z\n",
+        )
+        .as_bytes(),
         "unknown property type `quad`",
     );
 }
@@ -166,7 +190,11 @@ fn bad_scan_index() {
     let props = format!("{XYZ}property float scan_index\n");
     let mut bytes = header("ascii", 2, &props).into_bytes();
     bytes.extend(b"1 2 3 0\n4 5 6 1.5\n");
-    let text = expect_error("scan", &bytes, "vertex 1: scan index 1.5 is not a whole number");
+    let text = expect_error(
+        "scan",
+        &bytes,
+        "vertex 1: scan index 1.5 is not a whole number",
+    );
     assert!(text.contains("line 10"), "{text}");
 }
 
@@ -178,5 +206,10 @@ fn non_finite_points_are_skipped_and_counted() {
     let cloud = read_ply(&path).expect("NaN points are skipped, not fatal");
     assert_eq!(cloud.len(), 1);
     assert_eq!(cloud.source.skipped, 2);
-    assert!(cloud.source.skipped_reason.as_deref().unwrap().contains("non-finite"));
+    assert!(cloud
+        .source
+        .skipped_reason
+        .as_deref()
+        .unwrap()
+        .contains("non-finite"));
 }

@@ -17,7 +17,11 @@ fn scan(kind: BuildingKind, options: ScanOptions) -> Simulation {
     simulate(kind, &options).expect("valid simulation options")
 }
 
-fn plan_and_score(cloud: &PointCloud, sim: &Simulation, params: &Params) -> (FloorPlan, Evaluation) {
+fn plan_and_score(
+    cloud: &PointCloud,
+    sim: &Simulation,
+    params: &Params,
+) -> (FloorPlan, Evaluation) {
     let plan = asbuilt_plan::plan(cloud, params, &mut NoProgress)
         .unwrap_or_else(|e| panic!("{}: plan failed: {e}", sim.truth.building));
     let eval = evaluate(&plan, &sim.truth, &EvaluateParams::default());
@@ -28,18 +32,31 @@ fn plan_and_score(cloud: &PointCloud, sim: &Simulation, params: &Params) -> (Flo
 /// The bounds every clean run must meet.
 fn assert_clean(e: &Evaluation, name: &str) {
     let s = e.summary();
-    assert!(e.all_watertight(), "{name}: every story found and watertight\n{s}");
+    assert!(
+        e.all_watertight(),
+        "{name}: every story found and watertight\n{s}"
+    );
     assert_eq!(e.extra_stories, 0, "{name}: no invented stories\n{s}");
-    assert!(e.max_height_error() <= 0.02, "{name}: floors and ceilings within 2 cm\n{s}");
+    assert!(
+        e.max_height_error() <= 0.02,
+        "{name}: floors and ceilings within 2 cm\n{s}"
+    );
     assert!(e.min_iou() >= 0.97, "{name}: IoU >= 0.97\n{s}");
-    assert!(e.max_boundary_p95() <= 0.03, "{name}: boundary p95 <= 3 cm\n{s}");
+    assert!(
+        e.max_boundary_p95() <= 0.03,
+        "{name}: boundary p95 <= 3 cm\n{s}"
+    );
 }
 
 #[test]
 fn square_room_one_scan() {
     let sim = scan(
         BuildingKind::SquareRoom,
-        ScanOptions { points: 300_000, seed: 11, ..Default::default() },
+        ScanOptions {
+            points: 300_000,
+            seed: 11,
+            ..Default::default()
+        },
     );
     let (_, e) = plan_and_score(&sim.cloud, &sim, &Params::default());
     assert_clean(&e, "square room");
@@ -50,7 +67,11 @@ fn square_room_one_scan() {
 fn office_three_stories() {
     let sim = scan(
         BuildingKind::Office3Story,
-        ScanOptions { points: 1_500_000, seed: 12, ..Default::default() },
+        ScanOptions {
+            points: 1_500_000,
+            seed: 12,
+            ..Default::default()
+        },
     );
     let (plan, e) = plan_and_score(&sim.cloud, &sim, &Params::default());
     assert_eq!(plan.stories.len(), 3, "{}", e.summary());
@@ -61,19 +82,36 @@ fn office_three_stories() {
 fn curved_lobby_arc_radius() {
     let sim = scan(
         BuildingKind::CurvedLobby,
-        ScanOptions { points: 600_000, seed: 13, noise: 0.002, ..Default::default() },
+        ScanOptions {
+            points: 600_000,
+            seed: 13,
+            noise: 0.002,
+            ..Default::default()
+        },
     );
     let (_, e) = plan_and_score(&sim.cloud, &sim, &Params::default());
     assert_clean(&e, "lobby");
-    assert_eq!(e.stories[0].arcs.len(), 1, "the 10 m wall is the only arc of radius >= 1 m");
-    assert!(e.worst_arc_error() < 0.01, "arc radius within 1 %\n{}", e.summary());
+    assert_eq!(
+        e.stories[0].arcs.len(),
+        1,
+        "the 10 m wall is the only arc of radius >= 1 m"
+    );
+    assert!(
+        e.worst_arc_error() < 0.01,
+        "arc radius within 1 %\n{}",
+        e.summary()
+    );
 }
 
 #[test]
 fn rotated_l_with_poses() {
     let sim = scan(
         BuildingKind::RotatedL,
-        ScanOptions { points: 400_000, seed: 14, ..Default::default() },
+        ScanOptions {
+            points: 400_000,
+            seed: 14,
+            ..Default::default()
+        },
     );
     let (_, e) = plan_and_score(&sim.cloud, &sim, &Params::default());
     assert_clean(&e, "rotated L");
@@ -83,7 +121,11 @@ fn rotated_l_with_poses() {
 fn rotated_l_without_poses() {
     let mut sim = scan(
         BuildingKind::RotatedL,
-        ScanOptions { points: 400_000, seed: 15, ..Default::default() },
+        ScanOptions {
+            points: 400_000,
+            seed: 15,
+            ..Default::default()
+        },
     );
     let mut cloud = std::mem::take(&mut sim.cloud);
     cloud.viewpoints = Viewpoints::None;
@@ -92,7 +134,11 @@ fn rotated_l_without_poses() {
     let (_, e) = plan_and_score(&cloud, &sim, &Params::default());
     assert!(e.all_watertight(), "{}", e.summary());
     assert!(e.max_height_error() <= 0.02, "{}", e.summary());
-    assert!(e.min_iou() >= 0.95, "without poses IoU >= 0.95\n{}", e.summary());
+    assert!(
+        e.min_iou() >= 0.95,
+        "without poses IoU >= 0.95\n{}",
+        e.summary()
+    );
 }
 
 #[test]
@@ -101,13 +147,20 @@ fn rotated_l_georeferenced_through_ply_and_sidecar() {
     let offset = [512_345.0, 5_432_100.0, 230.0];
     let sim = scan(
         BuildingKind::RotatedL,
-        ScanOptions { points: 400_000, seed: 16, offset, ..Default::default() },
+        ScanOptions {
+            points: 400_000,
+            seed: 16,
+            offset,
+            ..Default::default()
+        },
     );
     let dir = std::env::temp_dir().join(format!("asbuilt-e2e-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let (cloud_path, poses_path) = (dir.join("cloud.ply"), dir.join("poses.json"));
     ply::write_ply(&cloud_path, &sim.cloud, ply::Encoding::BinaryLittleEndian).unwrap();
-    let Viewpoints::Static(p) = &sim.cloud.viewpoints else { panic!("static scans have poses") };
+    let Viewpoints::Static(p) = &sim.cloud.viewpoints else {
+        panic!("static scans have poses")
+    };
     poses::write_poses(&poses_path, p, sim.cloud.origin).unwrap();
     let mut cloud = read_cloud(&cloud_path).unwrap();
     let sidecar = poses::parse_poses(&std::fs::read_to_string(&poses_path).unwrap()).unwrap();
@@ -138,14 +191,22 @@ fn office_with_registration_error_and_smoothing() {
     assert!(e.all_watertight(), "{s}");
     assert!(e.max_height_error() <= 0.02, "{s}");
     assert!(e.min_iou() >= 0.95, "registration error: IoU >= 0.95\n{s}");
-    assert!(e.max_boundary_p95() <= 0.05, "registration error: p95 <= 5 cm\n{s}");
+    assert!(
+        e.max_boundary_p95() <= 0.05,
+        "registration error: p95 <= 5 cm\n{s}"
+    );
 }
 
 #[test]
 fn mobile_scan_of_the_lobby() {
     let sim = scan(
         BuildingKind::CurvedLobby,
-        ScanOptions { points: 500_000, seed: 18, mobile: true, ..Default::default() },
+        ScanOptions {
+            points: 500_000,
+            seed: 18,
+            mobile: true,
+            ..Default::default()
+        },
     );
     assert!(matches!(sim.cloud.viewpoints, Viewpoints::Trajectory(_)));
     let (_, e) = plan_and_score(&sim.cloud, &sim, &Params::default());
@@ -155,17 +216,27 @@ fn mobile_scan_of_the_lobby() {
 
 #[test]
 fn simulation_ground_truth_scores_itself_perfectly() {
-    // The evaluation's own sanity: the truth, as a plan, matches the truth exactly. This is the
-    // one test here that passes before the pipeline exists.
-    let sim = scan(BuildingKind::Office3Story, ScanOptions { points: 1000, ..Default::default() });
-    let e = evaluate(&sim.truth.to_floor_plan(), &sim.truth, &EvaluateParams::default());
-    assert!(e.min_iou() > 0.9999, "{}", e.summary());
-    assert!(e.max_boundary_p95() < 1e-3, "{}", e.summary());
-    assert!(e.min_completeness() > 0.999, "{}", e.summary());
-    assert!(e.all_watertight(), "{}", e.summary());
-    assert_eq!(e.max_height_error(), 0.0);
-    let lobby = scan(BuildingKind::CurvedLobby, ScanOptions { points: 1000, ..Default::default() });
-    let e = evaluate(&lobby.truth.to_floor_plan(), &lobby.truth, &EvaluateParams::default());
-    assert!(e.worst_arc_error() < 1e-12, "{}", e.summary());
-    assert!(e.all_watertight(), "{}", e.summary());
+    // The evaluation's own sanity: each building's truth, as a plan, matches the truth exactly
+    // and is valid. These pass before the pipeline exists.
+    for (name, kind) in BuildingKind::ALL {
+        let sim = scan(
+            kind,
+            ScanOptions {
+                points: 1000,
+                ..Default::default()
+            },
+        );
+        let e = evaluate(
+            &sim.truth.to_floor_plan(),
+            &sim.truth,
+            &EvaluateParams::default(),
+        );
+        let s = e.summary();
+        assert!(e.min_iou() > 0.9999, "{name}\n{s}");
+        assert!(e.max_boundary_p95() < 1e-3, "{name}\n{s}");
+        assert!(e.min_completeness() > 0.999, "{name}\n{s}");
+        assert!(e.all_watertight(), "{name}\n{s}");
+        assert_eq!(e.max_height_error(), 0.0, "{name}");
+        assert!(e.worst_arc_error() < 1e-12, "{name}\n{s}");
+    }
 }

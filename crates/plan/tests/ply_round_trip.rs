@@ -39,7 +39,12 @@ fn assert_same(a: &PointCloud, b: &PointCloud, tolerance: f64) {
             assert!((wp - wq).abs() <= tolerance, "{wp} vs {wq}");
         }
     }
-    let ids = |c: &PointCloud| c.scan.iter().map(|&s| c.scan_ids[s as usize]).collect::<Vec<_>>();
+    let ids = |c: &PointCloud| {
+        c.scan
+            .iter()
+            .map(|&s| c.scan_ids[s as usize])
+            .collect::<Vec<_>>()
+    };
     assert_eq!(ids(a), ids(b));
     assert_eq!(a.time, b.time);
     b.check().unwrap();
@@ -58,7 +63,11 @@ fn round_trip_every_encoding() {
         let back = read_cloud(&p).unwrap();
         assert_same(&c, &back, 1e-6);
         assert_eq!(back.source.format, "ply");
-        assert!(back.source.details.contains("scan_index"), "{}", back.source.details);
+        assert!(
+            back.source.details.contains("scan_index"),
+            "{}",
+            back.source.details
+        );
     }
 }
 

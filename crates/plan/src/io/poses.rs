@@ -330,15 +330,12 @@ fn numbers<const N: usize>(
     at: &dyn Fn() -> String,
 ) -> Result<[f64; N], PosesError> {
     let value = field(entry, name, at)?;
-    let items = value
-        .as_array()
-        .filter(|a| a.len() == N)
-        .ok_or_else(|| {
-            PosesError::Invalid(format!(
-                "{}: `{name}` must be an array of {N} numbers, not {value}",
-                at()
-            ))
-        })?;
+    let items = value.as_array().filter(|a| a.len() == N).ok_or_else(|| {
+        PosesError::Invalid(format!(
+            "{}: `{name}` must be an array of {N} numbers, not {value}",
+            at()
+        ))
+    })?;
     let mut out = [0.0; N];
     for (k, item) in items.iter().enumerate() {
         out[k] = number(item, &|| format!("{}.{name}[{k}]", at()))?;
@@ -403,26 +400,48 @@ mod tests {
     #[test]
     fn bad_entries_name_the_entry_and_field() {
         let cases = [
-            (r#"{"scans": [{"index": 0, "position": [0,0], "quaternion": [1,0,0,0]}]}"#, "scans[0] (index 0): `position`"),
-            (r#"{"scans": [{"index": 0, "position": [0,0,0], "quaternion": [2,0,0,0]}]}"#, "norm 2"),
-            (r#"{"scans": [{"index": 0, "position": [0,0,0], "quaternion": [1,0,0,0]},
-                           {"index": 0, "position": [0,0,0], "quaternion": [1,0,0,0]}]}"#, "scans[1] (index 0): duplicate index"),
-            (r#"{"scans": [{"index": -1, "position": [0,0,0], "quaternion": [1,0,0,0]}]}"#, "scans[0]: `index`"),
-            (r#"{"scans": [{"position": [0,0,0], "quaternion": [1,0,0,0]}]}"#, "scans[0]: no `index`"),
-            (r#"{"scans": [{"index": 1, "position": [0,"a",0], "quaternion": [1,0,0,0]}]}"#, "position[1]"),
+            (
+                r#"{"scans": [{"index": 0, "position": [0,0], "quaternion": [1,0,0,0]}]}"#,
+                "scans[0] (index 0): `position`",
+            ),
+            (
+                r#"{"scans": [{"index": 0, "position": [0,0,0], "quaternion": [2,0,0,0]}]}"#,
+                "norm 2",
+            ),
+            (
+                r#"{"scans": [{"index": 0, "position": [0,0,0], "quaternion": [1,0,0,0]},
+                           {"index": 0, "position": [0,0,0], "quaternion": [1,0,0,0]}]}"#,
+                "scans[1] (index 0): duplicate index",
+            ),
+            (
+                r#"{"scans": [{"index": -1, "position": [0,0,0], "quaternion": [1,0,0,0]}]}"#,
+                "scans[0]: `index`",
+            ),
+            (
+                r#"{"scans": [{"position": [0,0,0], "quaternion": [1,0,0,0]}]}"#,
+                "scans[0]: no `index`",
+            ),
+            (
+                r#"{"scans": [{"index": 1, "position": [0,"a",0], "quaternion": [1,0,0,0]}]}"#,
+                "position[1]",
+            ),
         ];
         for (text, want) in cases {
             let err = parse_poses(text).unwrap_err().to_string();
             assert!(err.contains(want), "{err:?} should contain {want:?}");
         }
         assert!(matches!(parse_poses("[1]"), Err(PosesError::Json(_))));
-        assert!(matches!(parse_poses("{\"scans\": 3}"), Err(PosesError::Json(_))));
+        assert!(matches!(
+            parse_poses("{\"scans\": 3}"),
+            Err(PosesError::Json(_))
+        ));
         assert!(matches!(parse_poses("{"), Err(PosesError::Json(_))));
     }
 
     #[test]
     fn near_unit_quaternions_are_renormalised() {
-        let text = r#"{"scans": [{"index": 0, "position": [0,0,0], "quaternion": [1.0002,0,0,0]}]}"#;
+        let text =
+            r#"{"scans": [{"index": 0, "position": [0,0,0], "quaternion": [1.0002,0,0,0]}]}"#;
         assert_eq!(parse_poses(text).unwrap()[0].quaternion, ID);
     }
 
@@ -430,11 +449,21 @@ mod tests {
     fn attach_converts_to_local_and_orders_by_scan_slot() {
         let mut cloud = cloud_with_scans(&[5, 2], [1000.0, 2000.0, 10.0]);
         let poses = vec![
-            ScanPose { index: 2, position: [1001.0, 2002.0, 11.5], quaternion: ID },
-            ScanPose { index: 5, position: [1003.0, 2004.0, 11.5], quaternion: ID },
+            ScanPose {
+                index: 2,
+                position: [1001.0, 2002.0, 11.5],
+                quaternion: ID,
+            },
+            ScanPose {
+                index: 5,
+                position: [1003.0, 2004.0, 11.5],
+                quaternion: ID,
+            },
         ];
         attach_poses(&mut cloud, poses).unwrap();
-        let Viewpoints::Static(p) = &cloud.viewpoints else { panic!("no poses") };
+        let Viewpoints::Static(p) = &cloud.viewpoints else {
+            panic!("no poses")
+        };
         assert_eq!(p[0].index, 5);
         assert_eq!(p[0].position, [3.0, 4.0, 1.5]);
         assert_eq!(p[1].position, [1.0, 2.0, 1.5]);
@@ -443,13 +472,20 @@ mod tests {
 
     #[test]
     fn mismatched_sidecars_name_the_index() {
-        let pose = |index| ScanPose { index, position: [0.0; 3], quaternion: ID };
+        let pose = |index| ScanPose {
+            index,
+            position: [0.0; 3],
+            quaternion: ID,
+        };
         let mut cloud = cloud_with_scans(&[0, 1], [0.0; 3]);
         let err = attach_poses(&mut cloud, vec![pose(0)]).unwrap_err();
         assert!(err.to_string().contains("scan 1"), "{err}");
         let err = attach_poses(&mut cloud, vec![pose(0), pose(1), pose(9)]).unwrap_err();
         assert!(err.to_string().contains("index 9"), "{err}");
-        let mut plain = PointCloud { xyz: vec![[0.0; 3]; 3], ..Default::default() };
+        let mut plain = PointCloud {
+            xyz: vec![[0.0; 3]; 3],
+            ..Default::default()
+        };
         assert!(attach_poses(&mut plain, vec![pose(0), pose(1)]).is_err());
         attach_poses(&mut plain, vec![pose(4)]).unwrap();
         assert_eq!(plain.scan_ids, vec![4]);
@@ -460,14 +496,29 @@ mod tests {
     fn trajectory_round_trip_and_interpolation() {
         let origin = [500_000.0, 4_000_000.0, 100.0];
         let samples = vec![
-            TrajectorySample { t: 0.0, position: [0.0, 0.0, 1.0], quaternion: ID },
-            TrajectorySample { t: 2.0, position: [2.0, 4.0, 1.0], quaternion: ID },
+            TrajectorySample {
+                t: 0.0,
+                position: [0.0, 0.0, 1.0],
+                quaternion: ID,
+            },
+            TrajectorySample {
+                t: 2.0,
+                position: [2.0, 4.0, 1.0],
+                quaternion: ID,
+            },
         ];
         let parsed = parse_trajectory(&trajectory_to_json(&samples, origin)).unwrap();
         assert_eq!(parsed[1].position, [500_002.0, 4_000_004.0, 101.0]);
-        let mut cloud = PointCloud { origin, xyz: vec![[0.0; 3]; 2], time: vec![0.5, 1.5], ..Default::default() };
+        let mut cloud = PointCloud {
+            origin,
+            xyz: vec![[0.0; 3]; 2],
+            time: vec![0.5, 1.5],
+            ..Default::default()
+        };
         attach_trajectory(&mut cloud, parsed).unwrap();
-        let Viewpoints::Trajectory(local) = &cloud.viewpoints else { panic!("no path") };
+        let Viewpoints::Trajectory(local) = &cloud.viewpoints else {
+            panic!("no path")
+        };
         assert_eq!(local, &samples);
         assert_eq!(position_at(local, 1.0), [1.0, 2.0, 1.0]);
         assert_eq!(position_at(local, -1.0), [0.0, 0.0, 1.0]);
@@ -478,22 +529,44 @@ mod tests {
     fn trajectory_errors() {
         let text = r#"{"samples": [{"t": 1, "position": [0,0,0], "quaternion": [1,0,0,0]},
                                    {"t": 1, "position": [0,0,0], "quaternion": [1,0,0,0]}]}"#;
-        assert!(parse_trajectory(text).unwrap_err().to_string().contains("samples[1]"));
+        assert!(parse_trajectory(text)
+            .unwrap_err()
+            .to_string()
+            .contains("samples[1]"));
         assert!(parse_trajectory(r#"{"samples": []}"#).is_err());
         let samples = vec![
-            TrajectorySample { t: 0.0, position: [0.0; 3], quaternion: ID },
-            TrajectorySample { t: 1.0, position: [0.0; 3], quaternion: ID },
+            TrajectorySample {
+                t: 0.0,
+                position: [0.0; 3],
+                quaternion: ID,
+            },
+            TrajectorySample {
+                t: 1.0,
+                position: [0.0; 3],
+                quaternion: ID,
+            },
         ];
-        let mut cloud = PointCloud { xyz: vec![[0.0; 3]; 2], time: vec![0.5, 9.0], ..Default::default() };
+        let mut cloud = PointCloud {
+            xyz: vec![[0.0; 3]; 2],
+            time: vec![0.5, 9.0],
+            ..Default::default()
+        };
         let err = attach_trajectory(&mut cloud, samples.clone()).unwrap_err();
         assert!(err.to_string().contains("point 1"), "{err}");
-        let mut untimed = PointCloud { xyz: vec![[0.0; 3]; 2], ..Default::default() };
+        let mut untimed = PointCloud {
+            xyz: vec![[0.0; 3]; 2],
+            ..Default::default()
+        };
         assert!(attach_trajectory(&mut untimed, samples).is_err());
     }
 
     #[test]
     fn poses_round_trip_through_json() {
-        let poses = vec![ScanPose { index: 3, position: [1.0, 2.0, 3.0], quaternion: [0.0, 0.0, 0.0, 1.0] }];
+        let poses = vec![ScanPose {
+            index: 3,
+            position: [1.0, 2.0, 3.0],
+            quaternion: [0.0, 0.0, 0.0, 1.0],
+        }];
         let text = poses_to_json(&poses, [10.0, 20.0, 30.0]);
         let back = parse_poses(&text).unwrap();
         assert_eq!(back[0].position, [11.0, 22.0, 33.0]);

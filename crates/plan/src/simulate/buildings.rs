@@ -407,7 +407,13 @@ fn curved_lobby() -> StoryModel {
         ceiling_z: c,
         surfaces,
         patches: Vec::new(),
-        stations: vec![[-5.0, -3.0], [5.0, -3.0], [0.0, 3.5], [-5.0, 6.0], [5.0, 6.0]],
+        stations: vec![
+            [-5.0, -3.0],
+            [5.0, -3.0],
+            [0.0, 3.5],
+            [-5.0, 6.0],
+            [5.0, 6.0],
+        ],
         route: vec![
             [-7.0, -3.0],
             [7.0, -3.0],
@@ -433,11 +439,20 @@ fn rotated_l() -> StoryModel {
     let s = RectStory {
         floor_z: 0.0,
         ceiling_z: 2.8,
-        open: vec![Rect::new(0.0, 0.0, 12.0, 5.0), Rect::new(0.0, 5.2, 5.0, 10.0)],
+        open: vec![
+            Rect::new(0.0, 0.0, 12.0, 5.0),
+            Rect::new(0.0, 5.2, 5.0, 10.0),
+        ],
         doors: vec![Rect::new(2.0, 5.0, 2.9, 5.2)],
         tables: vec![Rect::new(7.5, 1.0, 9.0, 1.8)],
         stations: vec![[9.5, 3.0], [3.5, 2.5], [2.5, 7.6]],
-        route: vec![[10.5, 2.5], [2.45, 2.5], [2.45, 8.5], [2.45, 2.5], [10.5, 2.5]],
+        route: vec![
+            [10.5, 2.5],
+            [2.45, 2.5],
+            [2.45, 8.5],
+            [2.45, 2.5],
+            [10.5, 2.5],
+        ],
         ..Default::default()
     };
     transform(s.into_model(), ROTATED_L_ANGLE, [3.0, -2.0])
@@ -452,7 +467,8 @@ mod tests {
         s.polygons
             .iter()
             .map(|p| {
-                ring_signed_area(&p.exterior) + p.holes.iter().map(|h| ring_signed_area(h)).sum::<f64>()
+                ring_signed_area(&p.exterior)
+                    + p.holes.iter().map(|h| ring_signed_area(h)).sum::<f64>()
             })
             .sum()
     }
@@ -489,7 +505,11 @@ mod tests {
     fn lobby_area_is_rectangle_plus_half_disc() {
         let b = BuildingKind::CurvedLobby.build();
         let want = 20.0 * 6.0 + PI * 50.0 - 0.36 - 3.0 * PI * 0.09;
-        assert!((area(&b.stories[0].truth) - want).abs() < 0.05, "{}", area(&b.stories[0].truth));
+        assert!(
+            (area(&b.stories[0].truth) - want).abs() < 0.05,
+            "{}",
+            area(&b.stories[0].truth)
+        );
     }
 
     #[test]

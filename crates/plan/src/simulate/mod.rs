@@ -15,9 +15,9 @@ pub mod rects;
 pub mod scanner;
 pub mod truth;
 
-use rayon::prelude::*;
 use rand::Rng;
 use rand_distr::Normal;
+use rayon::prelude::*;
 
 pub use buildings::{Building, BuildingKind};
 pub use truth::{Truth, TruthStory, TruthWall};
@@ -118,13 +118,20 @@ pub fn simulate(kind: BuildingKind, options: &ScanOptions) -> Result<Simulation,
 fn check(o: &ScanOptions) -> Result<(), SimulateError> {
     let bad = |name, why: String| Err(SimulateError::BadOption { name, why });
     if o.points == 0 || o.points > MAX_POINTS {
-        return bad("points", format!("must be from 1 to {MAX_POINTS}, not {}", o.points));
+        return bad(
+            "points",
+            format!("must be from 1 to {MAX_POINTS}, not {}", o.points),
+        );
     }
     if !(o.noise.is_finite() && (0.0..=1.0).contains(&o.noise)) {
         return bad("noise", format!("must be from 0 to 1 m, not {}", o.noise));
     }
     if let Some((t, r)) = o.registration {
-        if !(t.is_finite() && (0.0..=1.0).contains(&t) && r.is_finite() && (0.0..=10.0).contains(&r)) {
+        if !(t.is_finite()
+            && (0.0..=1.0).contains(&t)
+            && r.is_finite()
+            && (0.0..=10.0).contains(&r))
+        {
             return bad(
                 "registration_error",
                 format!("must be 0-1 m and 0-10 degrees, not {t} m, {r} degrees"),
@@ -132,7 +139,10 @@ fn check(o: &ScanOptions) -> Result<(), SimulateError> {
         }
     }
     if !o.offset.iter().all(|c| c.is_finite() && c.abs() < 1.0e9) {
-        return bad("offset", format!("must be finite and below 1e9 m, not {:?}", o.offset));
+        return bad(
+            "offset",
+            format!("must be finite and below 1e9 m, not {:?}", o.offset),
+        );
     }
     Ok(())
 }
@@ -209,7 +219,9 @@ fn scan_static(building: &Building, o: &ScanOptions) -> PointCloud {
     cloud.xyz.reserve_exact(len);
     cloud.scan.reserve_exact(len);
     for (&(k, _, _), chunk) in blocks.iter().zip(chunks) {
-        cloud.scan.extend(std::iter::repeat_n(k as u16, chunk.len()));
+        cloud
+            .scan
+            .extend(std::iter::repeat_n(k as u16, chunk.len()));
         cloud.xyz.extend(chunk);
     }
     cloud.scan_ids = (0..stations.len() as u32).collect();
@@ -258,7 +270,10 @@ fn along(route: &[P2], dist: f64) -> (P2, f64) {
         let len = geom::dist(w[0], w[1]);
         let heading = (w[1][1] - w[0][1]).atan2(w[1][0] - w[0][0]);
         if left <= len && len > 0.0 {
-            return (geom::add(w[0], geom::scale(geom::sub(w[1], w[0]), left / len)), heading);
+            return (
+                geom::add(w[0], geom::scale(geom::sub(w[1], w[0]), left / len)),
+                heading,
+            );
         }
         left -= len;
     }
@@ -348,7 +363,10 @@ mod tests {
         // Every point lies on a wall, the floor or the ceiling of the 6 × 5 × 2.6 room.
         for p in &a.cloud.xyz {
             let on = |v: f32, lo: f32, hi: f32| (v - lo).abs() < 1e-4 || (v - hi).abs() < 1e-4;
-            assert!(on(p[0], 0.0, 6.0) || on(p[1], 0.0, 5.0) || on(p[2], 0.0, 2.6), "{p:?}");
+            assert!(
+                on(p[0], 0.0, 6.0) || on(p[1], 0.0, 5.0) || on(p[2], 0.0, 2.6),
+                "{p:?}"
+            );
         }
         let c = simulate(BuildingKind::SquareRoom, &ScanOptions { seed: 8, ..opts }).unwrap();
         assert_ne!(a.cloud.xyz, c.cloud.xyz);
@@ -362,11 +380,16 @@ mod tests {
             ..Default::default()
         };
         let sim = simulate(BuildingKind::RotatedL, &opts).unwrap();
-        let Viewpoints::Static(poses) = &sim.cloud.viewpoints else { panic!("no poses") };
+        let Viewpoints::Static(poses) = &sim.cloud.viewpoints else {
+            panic!("no poses")
+        };
         let station = BuildingKind::RotatedL.build().stories[0].stations[1];
         let moved = geom::dist([poses[1].position[0], poses[1].position[1]], station);
         assert!((moved - 0.05).abs() < 1e-9, "{moved}");
-        assert_eq!(poses[0].position[0], BuildingKind::RotatedL.build().stories[0].stations[0][0]);
+        assert_eq!(
+            poses[0].position[0],
+            BuildingKind::RotatedL.build().stories[0].stations[0][0]
+        );
     }
 
     #[test]
@@ -379,7 +402,9 @@ mod tests {
         };
         let sim = simulate(BuildingKind::SquareRoom, &opts).unwrap();
         sim.cloud.check().unwrap();
-        let Viewpoints::Trajectory(path) = &sim.cloud.viewpoints else { panic!("no path") };
+        let Viewpoints::Trajectory(path) = &sim.cloud.viewpoints else {
+            panic!("no path")
+        };
         assert_eq!(sim.cloud.time.len(), sim.cloud.len());
         let (t0, t1) = (path[0].t, path[path.len() - 1].t);
         assert!((t1 - t0 - 10.0).abs() < 1e-9, "a 10 m loop at 1 m/s");
@@ -390,9 +415,27 @@ mod tests {
 
     #[test]
     fn bad_options_are_named() {
-        let err = simulate(BuildingKind::SquareRoom, &ScanOptions { points: 0, ..Default::default() });
-        assert!(matches!(err, Err(SimulateError::BadOption { name: "points", .. })));
-        let err = simulate(BuildingKind::SquareRoom, &ScanOptions { noise: f64::NAN, ..Default::default() });
-        assert!(matches!(err, Err(SimulateError::BadOption { name: "noise", .. })));
+        let err = simulate(
+            BuildingKind::SquareRoom,
+            &ScanOptions {
+                points: 0,
+                ..Default::default()
+            },
+        );
+        assert!(matches!(
+            err,
+            Err(SimulateError::BadOption { name: "points", .. })
+        ));
+        let err = simulate(
+            BuildingKind::SquareRoom,
+            &ScanOptions {
+                noise: f64::NAN,
+                ..Default::default()
+            },
+        );
+        assert!(matches!(
+            err,
+            Err(SimulateError::BadOption { name: "noise", .. })
+        ));
     }
 }

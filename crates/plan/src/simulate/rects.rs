@@ -63,7 +63,11 @@ pub fn outline(open: &[Rect], solid: &[Rect]) -> Vec<Polygon> {
         }
     }
     let is_open = |i: isize, j: isize| {
-        i >= 0 && j >= 0 && (i as usize) < nx && (j as usize) < ny && cell[j as usize * nx + i as usize]
+        i >= 0
+            && j >= 0
+            && (i as usize) < nx
+            && (j as usize) < ny
+            && cell[j as usize * nx + i as usize]
     };
     // Directed boundary edges between grid vertices, open side on the left.
     let mut out: HashMap<(isize, isize), Vec<(isize, isize)>> = HashMap::new();
@@ -150,9 +154,7 @@ pub fn group(rings: Vec<Vec<P2>>) -> Vec<Polygon> {
         let owner = polygons
             .iter_mut()
             .filter(|p| point_in_ring(probe, &p.exterior))
-            .min_by(|a, b| {
-                ring_signed_area(&a.exterior).total_cmp(&ring_signed_area(&b.exterior))
-            });
+            .min_by(|a, b| ring_signed_area(&a.exterior).total_cmp(&ring_signed_area(&b.exterior)));
         if let Some(p) = owner {
             p.holes.push(hole);
         }
@@ -206,7 +208,10 @@ mod tests {
 
     #[test]
     fn a_column_is_a_clockwise_hole() {
-        let polys = outline(&[Rect::new(0.0, 0.0, 5.0, 5.0)], &[Rect::new(2.0, 2.0, 3.0, 3.0)]);
+        let polys = outline(
+            &[Rect::new(0.0, 0.0, 5.0, 5.0)],
+            &[Rect::new(2.0, 2.0, 3.0, 3.0)],
+        );
         assert_eq!(polys.len(), 1);
         assert_eq!(polys[0].holes.len(), 1);
         assert_eq!(ring_signed_area(&polys[0].holes[0]), -1.0);

@@ -147,7 +147,11 @@ mod tests {
         let s = &b.stories[0];
         let o = [0.0, 0.0, 1.5];
         let a = 1.0_f64;
-        let d = [a.cos() * 0.999, a.sin() * 0.999, (1.0f64 - 0.999 * 0.999).sqrt()];
+        let d = [
+            a.cos() * 0.999,
+            a.sin() * 0.999,
+            (1.0f64 - 0.999 * 0.999).sqrt(),
+        ];
         let t = cast(s, o, d).unwrap();
         let p = [t * d[0], t * d[1]];
         let r = (p[0] * p[0] + p[1] * p[1]).sqrt();
@@ -169,10 +173,14 @@ mod tests {
             [q[0] + 3.0, q[1] - 2.0]
         };
         let from = fwd([2.45, 2.5]);
-        let dir2 = crate::simulate::truth::rotate([0.0, 1.0], super::super::buildings::ROTATED_L_ANGLE);
+        let dir2 =
+            crate::simulate::truth::rotate([0.0, 1.0], super::super::buildings::ROTATED_L_ANGLE);
         let low = cast(s, [from[0], from[1], 1.0], [dir2[0], dir2[1], 0.0]).unwrap();
         let hit = undo([from[0] + low * dir2[0], from[1] + low * dir2[1]]);
-        assert!((hit[1] - 10.0).abs() < 1e-9, "through the door to the far wall: {hit:?}");
+        assert!(
+            (hit[1] - 10.0).abs() < 1e-9,
+            "through the door to the far wall: {hit:?}"
+        );
         let high = cast(s, [from[0], from[1], 2.5], [dir2[0], dir2[1], 0.0]).unwrap();
         let hit = undo([from[0] + high * dir2[0], from[1] + high * dir2[1]]);
         assert!((hit[1] - 5.0).abs() < 1e-9, "the lintel: {hit:?}");

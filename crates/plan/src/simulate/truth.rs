@@ -143,7 +143,10 @@ impl Truth {
             parameters: serde_json::json!({"building": self.building}),
             timings_ms: Vec::new(),
             stories: self.stories.iter().map(story_plan).collect(),
-            notes: vec![format!("ground truth of the simulated building `{}`", self.building)],
+            notes: vec![format!(
+                "ground truth of the simulated building `{}`",
+                self.building
+            )],
         }
     }
 }
@@ -163,9 +166,7 @@ fn story_plan(s: &TruthStory) -> StoryPlan {
                     points: vec![a, b],
                     support: 0,
                 },
-                TruthWall::Arc {
-                    center, radius, ..
-                } => Wall {
+                TruthWall::Arc { center, radius, .. } => Wall {
                     model: WallModel::Arc { center, radius },
                     points: densify(w, 0.01),
                     support: 0,

@@ -4,11 +4,21 @@
 //! Plan and truth may have different local origins (a PLY reader picks its own); everything is
 //! compared in the truth's local frame.
 
+mod area;
+mod distance;
+mod watertight;
+
 use serde::Serialize;
 
 use crate::geom::{self, P2};
 use crate::plan::{FloorPlan, Polygon, StoryPlan, WallModel};
-use crate::simulate::truth::{densify, Truth, TruthStory, TruthWall};
+use crate::simulate::truth::{Truth, TruthStory, TruthWall};
+
+pub use area::{area, iou};
+pub use watertight::watertight;
+
+use area::rings;
+use distance::{boundary_distances, completeness, stats};
 
 /// How finely to measure.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -95,10 +105,16 @@ impl Evaluation {
         self.stories.iter().map(|s| s.iou).fold(1.0, f64::min)
     }
     pub fn max_boundary_p95(&self) -> f64 {
-        self.stories.iter().map(|s| s.boundary_p95).fold(0.0, f64::max)
+        self.stories
+            .iter()
+            .map(|s| s.boundary_p95)
+            .fold(0.0, f64::max)
     }
     pub fn min_completeness(&self) -> f64 {
-        self.stories.iter().map(|s| s.completeness).fold(1.0, f64::min)
+        self.stories
+            .iter()
+            .map(|s| s.completeness)
+            .fold(1.0, f64::min)
     }
     pub fn max_height_error(&self) -> f64 {
         self.stories
@@ -278,9 +294,10 @@ fn arc_score(p: &StoryPlan, center: P2, radius: f64) -> ArcScore {
         .walls
         .iter()
         .filter_map(|w| match w.model {
-            WallModel::Arc { center: c, radius: r } if geom::dist(c, center) <= 0.25 * radius => {
-                Some(r)
-            }
+            WallModel::Arc {
+                center: c,
+                radius: r,
+            } if geom::dist(c, center) <= 0.25 * radius => Some(r),
             _ => None,
         })
         .min_by(|a, b| (a - radius).abs().total_cmp(&(b - radius).abs()));
@@ -290,318 +307,6 @@ fn arc_score(p: &StoryPlan, center: P2, radius: f64) -> ArcScore {
         plan_radius: best,
         relative_error: best.map(|r| (r - radius).abs() / radius),
     }
-}
-
-/// Open area: exteriors minus holes.
-pub fn area(polygons: &[Polygon]) -> f64 {
-    polygons
-        .iter()
-        .map(|p| {
-            geom::ring_signed_area(&p.exterior).abs()
-                - p.holes
-                    .iter()
-                    .map(|h| geom::ring_signed_area(h).abs())
-                    .sum::<f64>()
-        })
-        .sum()
-}
-
-/// Every ring of every polygon, without a repeated closing vertex.
-fn rings(polygons: &[Polygon]) -> Vec<Vec<P2>> {
-    polygons
-        .iter()
-        .flat_map(|p| std::iter::once(&p.exterior).chain(&p.holes))
-        .map(|r| {
-            let mut r = r.clone();
-            while r.len() > 1 && r.first() == r.last() {
-                r.pop();
-            }
-            r
-        })
-        .collect()
-}
-
-/// The x intervals inside `rings` (even-odd) along the line at height `y`, sorted and disjoint.
-fn spans(rings: &[Vec<P2>], y: f64, xs: &mut Vec<f64>) -> Vec<(f64, f64)> {
-    xs.clear();
-    for r in rings {
-        let n = r.len();
-        for k in 0..n {
-            let (a, b) = (r[k], r[(k + 1) % n]);
-            if (a[1] > y) != (b[1] > y) {
-                xs.push(a[0] + (y - a[1]) / (b[1] - a[1]) * (b[0] - a[0]));
-            }
-        }
-    }
-    xs.sort_by(f64::total_cmp);
-    xs.chunks_exact(2).map(|c| (c[0], c[1])).collect()
-}
-
-/// Total lengths of the intersection and the union of two sorted disjoint interval lists.
-fn overlap(a: &[(f64, f64)], b: &[(f64, f64)]) -> (f64, f64) {
-    let len = |v: &[(f64, f64)]| v.iter().map(|(l, h)| h - l).sum::<f64>();
-    let (mut i, mut j, mut inter) = (0, 0, 0.0);
-    while i < a.len() && j < b.len() {
-        let lo = a[i].0.max(b[j].0);
-        let hi = a[i].1.min(b[j].1);
-        if hi > lo {
-            inter += hi - lo;
-        }
-        if a[i].1 < b[j].1 {
-            i += 1;
-        } else {
-            j += 1;
-        }
-    }
-    (inter, len(a) + len(b) - inter)
-}
-
-/// Area intersection over union, on scanlines `dy` apart (exact along each scanline).
-pub fn iou(a: &[Polygon], b: &[Polygon], dy: f64) -> f64 {
-    let (ra, rb) = (rings(a), rings(b));
-    let ys = ra.iter().chain(&rb).flatten().map(|p| p[1]);
-    let (lo, hi) = ys.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| {
-        (l.min(y), h.max(y))
-    });
-    if !(hi > lo) {
-        return 0.0;
-    }
-    let rows = ((hi - lo) / dy).ceil() as usize;
-    let step = (hi - lo) / rows as f64;
-    let mut xs = Vec::new();
-    let (mut inter, mut union) = (0.0, 0.0);
-    for k in 0..rows {
-        let y = lo + (k as f64 + 0.5) * step;
-        let (i, u) = overlap(&spans(&ra, y, &mut xs), &spans(&rb, y, &mut xs));
-        inter += i;
-        union += u;
-    }
-    if union > 0.0 {
-        inter / union
-    } else {
-        0.0
-    }
-}
-
-/// Points every `step` along each ring edge (edge start points included).
-fn ring_points(rings: &[Vec<P2>], step: f64) -> Vec<P2> {
-    let mut out = Vec::new();
-    for r in rings {
-        let n = r.len();
-        for k in 0..n {
-            let (a, b) = (r[k], r[(k + 1) % n]);
-            let m = (geom::dist(a, b) / step).ceil().max(1.0) as usize;
-            out.extend((0..m).map(|i| geom::add(a, geom::scale(geom::sub(b, a), i as f64 / m as f64))));
-        }
-    }
-    out
-}
-
-/// Distance from points along the plan's boundary to the nearest truth wall.
-fn boundary_distances(plan: &[Vec<P2>], walls: &[TruthWall], step: f64) -> Vec<f64> {
-    ring_points(plan, step)
-        .into_iter()
-        .map(|p| {
-            walls
-                .iter()
-                .map(|w| w.distance(p))
-                .fold(f64::INFINITY, f64::min)
-        })
-        .collect()
-}
-
-/// Mean, 95th percentile and maximum; infinite when empty.
-fn stats(mut v: Vec<f64>) -> (f64, f64, f64) {
-    if v.is_empty() {
-        return (f64::INFINITY, f64::INFINITY, f64::INFINITY);
-    }
-    v.sort_by(f64::total_cmp);
-    let mean = v.iter().sum::<f64>() / v.len() as f64;
-    let k = ((v.len() as f64 * 0.95).ceil() as usize).clamp(1, v.len()) - 1;
-    (mean, v[k], v[v.len() - 1])
-}
-
-/// Segments bucketed in a uniform grid, for "is anything within r of p" queries.
-struct SegmentGrid {
-    cell: f64,
-    cells: std::collections::HashMap<(i64, i64), Vec<(P2, P2)>>,
-}
-
-impl SegmentGrid {
-    fn new(rings: &[Vec<P2>], cell: f64) -> SegmentGrid {
-        let mut cells: std::collections::HashMap<(i64, i64), Vec<(P2, P2)>> = Default::default();
-        for r in rings {
-            let n = r.len();
-            for k in 0..n {
-                let (a, b) = (r[k], r[(k + 1) % n]);
-                let key = |v: f64| (v / cell).floor() as i64;
-                for i in key(a[0].min(b[0]))..=key(a[0].max(b[0])) {
-                    for j in key(a[1].min(b[1]))..=key(a[1].max(b[1])) {
-                        cells.entry((i, j)).or_default().push((a, b));
-                    }
-                }
-            }
-        }
-        SegmentGrid { cell, cells }
-    }
-
-    /// True when a segment passes within `r` (at most one cell) of `p`.
-    fn near(&self, p: P2, r: f64) -> bool {
-        let (ci, cj) = ((p[0] / self.cell).floor() as i64, (p[1] / self.cell).floor() as i64);
-        (ci - 1..=ci + 1).any(|i| {
-            (cj - 1..=cj + 1).any(|j| {
-                self.cells.get(&(i, j)).is_some_and(|segs| {
-                    segs.iter()
-                        .any(|&(a, b)| geom::point_segment_distance(p, a, b) <= r)
-                })
-            })
-        })
-    }
-}
-
-/// Fraction of truth wall length whose points have plan boundary within the tolerance.
-fn completeness(plan: &[Vec<P2>], walls: &[TruthWall], params: &EvaluateParams) -> f64 {
-    let tol = params.completeness_tolerance;
-    let grid = SegmentGrid::new(plan, tol.max(0.05));
-    let (mut covered, mut total) = (0.0, 0.0);
-    for w in walls {
-        let len = w.length();
-        let n = (len / params.step).ceil().max(1.0) as usize;
-        for i in 0..n {
-            let p = w.at((i as f64 + 0.5) / n as f64);
-            total += len / n as f64;
-            if grid.near(p, tol) {
-                covered += len / n as f64;
-            }
-        }
-    }
-    if total > 0.0 {
-        covered / total
-    } else {
-        0.0
-    }
-}
-
-fn orient(a: P2, b: P2, c: P2) -> f64 {
-    geom::cross(geom::sub(b, a), geom::sub(c, a))
-}
-
-fn on_segment(p: P2, a: P2, b: P2) -> bool {
-    orient(a, b, p) == 0.0
-        && p[0] >= a[0].min(b[0])
-        && p[0] <= a[0].max(b[0])
-        && p[1] >= a[1].min(b[1])
-        && p[1] <= a[1].max(b[1])
-}
-
-/// How two segments meet: not at all, at a single touching point, or crossing/overlapping.
-#[derive(PartialEq)]
-enum Contact {
-    None,
-    Touch,
-    Cross,
-}
-
-fn contact(p1: P2, p2: P2, q1: P2, q2: P2) -> Contact {
-    let d1 = orient(q1, q2, p1);
-    let d2 = orient(q1, q2, p2);
-    let d3 = orient(p1, p2, q1);
-    let d4 = orient(p1, p2, q2);
-    if d1 * d2 < 0.0 && d3 * d4 < 0.0 {
-        return Contact::Cross;
-    }
-    let touches = on_segment(p1, q1, q2)
-        || on_segment(p2, q1, q2)
-        || on_segment(q1, p1, p2)
-        || on_segment(q2, p1, p2);
-    if !touches {
-        return Contact::None;
-    }
-    if d1 == 0.0 && d2 == 0.0 {
-        // Collinear: they overlap when q's projection onto p covers more than a point.
-        let d = geom::sub(p2, p1);
-        let len2 = geom::dot(d, d);
-        if len2 > 0.0 {
-            let t = |q: P2| geom::dot(geom::sub(q, p1), d) / len2;
-            let (a, b) = (t(q1).min(t(q2)), t(q1).max(t(q2)));
-            if b.min(1.0) - a.max(0.0) > 1e-12 {
-                return Contact::Cross;
-            }
-        }
-    }
-    Contact::Touch
-}
-
-/// Checks that every ring has at least three vertices and positive area, that no ring crosses
-/// itself or another, and that holes lie inside their exterior. Rings of different polygons or
-/// a hole and its exterior may touch at single points; a ring may not touch itself.
-pub fn watertight(polygons: &[Polygon]) -> Result<(), String> {
-    if polygons.is_empty() {
-        return Err("no polygons".into());
-    }
-    // (ring id, index in ring, ring length, a, b)
-    let mut segs: Vec<(usize, usize, usize, P2, P2)> = Vec::new();
-    let mut ring_id = 0;
-    for (pi, p) in polygons.iter().enumerate() {
-        for (hi, r) in std::iter::once(&p.exterior).chain(&p.holes).enumerate() {
-            let mut r = r.clone();
-            while r.len() > 1 && r.first() == r.last() {
-                r.pop();
-            }
-            let what = if hi == 0 { format!("polygon {pi} exterior") } else { format!("polygon {pi} hole {}", hi - 1) };
-            if r.len() < 3 {
-                return Err(format!("{what} has {} vertices", r.len()));
-            }
-            if r.iter().flatten().any(|c| !c.is_finite()) {
-                return Err(format!("{what} has a non-finite vertex"));
-            }
-            if geom::ring_signed_area(&r).abs() <= 0.0 {
-                return Err(format!("{what} has zero area"));
-            }
-            if hi > 0 && !crate::simulate::rects::point_in_ring(r[0], &p.exterior) && !p.exterior.contains(&r[0]) {
-                return Err(format!("{what} is not inside its exterior"));
-            }
-            let n = r.len();
-            for k in 0..n {
-                segs.push((ring_id, k, n, r[k], r[(k + 1) % n]));
-            }
-            ring_id += 1;
-        }
-    }
-    segs.sort_by(|a, b| a.3[0].min(a.4[0]).total_cmp(&b.3[0].min(b.4[0])));
-    for i in 0..segs.len() {
-        let (ri, ki, n, a, b) = segs[i];
-        let max_x = a[0].max(b[0]);
-        for &(rj, kj, _, c, d) in &segs[i + 1..] {
-            if c[0].min(d[0]) > max_x {
-                break;
-            }
-            if a[1].max(b[1]) < c[1].min(d[1]) || c[1].max(d[1]) < a[1].min(b[1]) {
-                continue;
-            }
-            let adjacent = ri == rj && (ki + 1) % n == kj || ri == rj && (kj + 1) % n == ki;
-            match contact(a, b, c, d) {
-                Contact::None => {}
-                Contact::Touch if adjacent || ri != rj => {}
-                Contact::Cross if adjacent && n > 3 => {
-                    // Adjacent edges share one vertex; anything more is a fold back.
-                    return Err(format!("ring {ri} folds back on itself near {a:?}"));
-                }
-                _ => {
-                    return Err(format!(
-                        "ring {ri} edge {ki} ({a:?} to {b:?}) meets ring {rj} edge {kj} ({c:?} to {d:?})"
-                    ))
-                }
-            }
-        }
-    }
-    Ok(())
-}
-
-/// Densified truth polygons' arcs are already in the truth; this is kept for callers that want
-/// a truth wall as a polyline.
-pub fn wall_polyline(w: &TruthWall) -> Vec<P2> {
-    densify(w, 0.001)
 }
 
 #[cfg(test)]
@@ -618,7 +323,10 @@ mod tests {
     fn walls_of(p: &Polygon) -> Vec<TruthWall> {
         let r = &p.exterior;
         (0..r.len())
-            .map(|k| TruthWall::Line { a: r[k], b: r[(k + 1) % r.len()] })
+            .map(|k| TruthWall::Line {
+                a: r[k],
+                b: r[(k + 1) % r.len()],
+            })
             .collect()
     }
 
@@ -658,7 +366,11 @@ mod tests {
     #[test]
     fn identical_polygons_score_perfectly() {
         let sq = square(0.0, 0.0, 4.0);
-        let e = evaluate(&plan_of(sq.clone(), [0.0; 3]), &truth_of(sq), &EvaluateParams::default());
+        let e = evaluate(
+            &plan_of(sq.clone(), [0.0; 3]),
+            &truth_of(sq),
+            &EvaluateParams::default(),
+        );
         let s = &e.stories[0];
         assert!((s.iou - 1.0).abs() < 1e-12, "{}", e.summary());
         assert!(s.boundary_p95 < 1e-12);
@@ -680,7 +392,11 @@ mod tests {
         assert!((s.boundary_max - 0.1).abs() < 1e-9);
         // Covered truth: the bottom and top walls except their first 5 cm (3.95 m each), and
         // the right wall's last 5 cm at each end, where the plan's top and bottom pass by.
-        assert!((s.completeness - 8.0 / 16.0).abs() < 0.002, "{}", s.completeness);
+        assert!(
+            (s.completeness - 8.0 / 16.0).abs() < 0.002,
+            "{}",
+            s.completeness
+        );
     }
 
     #[test]
@@ -694,7 +410,8 @@ mod tests {
     #[test]
     fn holes_reduce_area_and_iou() {
         let mut p = square(0.0, 0.0, 4.0);
-        p.holes.push(vec![[1.0, 1.0], [1.0, 3.0], [3.0, 3.0], [3.0, 1.0]]);
+        p.holes
+            .push(vec![[1.0, 1.0], [1.0, 3.0], [3.0, 3.0], [3.0, 1.0]]);
         let truth = truth_of(square(0.0, 0.0, 4.0));
         let e = evaluate(&plan_of(p, [0.0; 3]), &truth, &EvaluateParams::default());
         assert!((e.stories[0].iou - 12.0 / 16.0).abs() < 1e-9);
@@ -709,10 +426,15 @@ mod tests {
             holes: Vec::new(),
         };
         assert!(watertight(&[bow]).is_err());
-        let line = Polygon { exterior: vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]], holes: Vec::new() };
+        let line = Polygon {
+            exterior: vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]],
+            holes: Vec::new(),
+        };
         assert!(watertight(&[line]).is_err());
         let mut outside_hole = square(0.0, 0.0, 1.0);
-        outside_hole.holes.push(vec![[5.0, 5.0], [5.0, 6.0], [6.0, 6.0]]);
+        outside_hole
+            .holes
+            .push(vec![[5.0, 5.0], [5.0, 6.0], [6.0, 6.0]]);
         assert!(watertight(&[outside_hole]).is_err());
         // Two squares sharing one corner are fine; a closed repeated vertex is tolerated.
         let mut closed = square(0.0, 0.0, 1.0);
@@ -724,12 +446,20 @@ mod tests {
 
     #[test]
     fn arc_radius_error_and_missing_story() {
-        let arc = TruthWall::Arc { center: [0.0, 0.0], radius: 10.0, start: 0.0, sweep: 1.0 };
+        let arc = TruthWall::Arc {
+            center: [0.0, 0.0],
+            radius: 10.0,
+            start: 0.0,
+            sweep: 1.0,
+        };
         let mut truth = truth_of(square(0.0, 0.0, 4.0));
         truth.stories[0].walls.push(arc);
         let mut plan = plan_of(square(0.0, 0.0, 4.0), [0.0; 3]);
         plan.stories[0].walls.push(crate::plan::Wall {
-            model: WallModel::Arc { center: [0.05, 0.0], radius: 10.1 },
+            model: WallModel::Arc {
+                center: [0.05, 0.0],
+                radius: 10.1,
+            },
             points: vec![],
             support: 10,
         });

@@ -1,0 +1,486 @@
+//! PLY: ASCII and binary (both endiannesses), streamed, with optional `scan_index` and `time`.
+//!
+//! The reader never parses the whole file at once: it reads the header, skips the elements before
+//! `vertex` (lists included), then decodes vertices in chunks from a `BufReader` straight into the
+//! cloud's compact arrays. The header's counts are checked against the file's size before anything
+//! is allocated, so a header claiming billions of vertices is an error, not an allocation.
+//! Points with a non-finite coordinate are skipped and counted in `SourceInfo::skipped`.
+
+mod header;
+mod write;
+
+use std::collections::HashMap;
+use std::fs::File;
+use std::io::{BufRead, BufReader, Read};
+use std::path::Path;
+
+use super::ReadError;
+use crate::cloud::{local_origin, to_local, PointCloud, SourceInfo};
+use header::{check_counts, describe, layout, read_header, Element, Header, Kind, Layout, Scalar};
+
+pub use header::Encoding;
+pub use write::{write_ply, write_ply_to, WriteError};
+
+/// Vertices decoded per chunk on the binary path.
+const CHUNK_VERTICES: usize = 1 << 16;
+/// Never reserve room for more points than this up front. Counts below it are reserved exactly
+/// (after the file's size has confirmed them), so the arrays never grow by doubling.
+const MAX_RESERVE: usize = 1 << 30;
+/// Property names that give a point's scan index, in order of preference.
+pub(super) const SCAN_NAMES: [&str; 3] = ["scan_index", "scan", "point_source_id"];
+
+const FORMAT: &str = "ply";
+
+/// Reads a PLY file.
+pub fn read_ply(path: &Path) -> Result<PointCloud, ReadError> {
+    let file = File::open(path).map_err(|e| io_error(path, e))?;
+    let file_len = file.metadata().map_err(|e| io_error(path, e))?.len();
+    let mut reader = BufReader::with_capacity(1 << 20, file);
+    let header = read_header(&mut reader, path)?;
+    let (vertex_pos, vertex) = header
+        .elements
+        .iter()
+        .enumerate()
+        .find(|(_, e)| e.name == "vertex")
+        .ok_or_else(|| invalid(path, "the header declares no `vertex` element", None))?;
+    let layout = layout(vertex, path)?;
+    check_counts(&header, vertex_pos, file_len, path)?;
+
+    let mut sink = Sink::new(vertex.count, layout);
+    let mut body = Body {
+        path,
+        header: &header,
+        reader: &mut reader,
+        offset: header.len,
+        line: header.lines,
+        text: String::new(),
+    };
+    for element in &header.elements[..vertex_pos] {
+        body.skip_element(element)?;
+    }
+    body.read_vertices(vertex, layout, &mut sink)?;
+    Ok(sink.finish(describe(&header, vertex)))
+}
+
+/// Accumulates decoded vertices into the cloud's compact arrays.
+struct Sink {
+    cloud: PointCloud,
+    origin: Option<[f64; 3]>,
+    slots: HashMap<u32, u16>,
+    last: Option<(u32, u16)>,
+    skipped: u64,
+}
+
+impl Sink {
+    /// `count` must already be checked against the file's size.
+    fn new(count: u64, layout: Layout) -> Sink {
+        let reserve = (count as usize).min(MAX_RESERVE);
+        let maybe = |wanted: bool| if wanted { reserve } else { 0 };
+        Sink {
+            cloud: PointCloud {
+                xyz: Vec::with_capacity(reserve),
+                scan: Vec::with_capacity(maybe(layout.scan.is_some())),
+                time: Vec::with_capacity(maybe(layout.time.is_some())),
+                ..Default::default()
+            },
+            origin: None,
+            slots: HashMap::new(),
+            last: None,
+            skipped: 0,
+        }
+    }
+
+    /// Adds one vertex; `scan` and `time` are present when the layout has them.
+    /// Returns an error message for a scan index that is not a whole number.
+    fn push(&mut self, p: [f64; 3], scan: Option<f64>, time: Option<f64>) -> Result<(), String> {
+        if !p.iter().all(|c| c.is_finite()) || time.is_some_and(|t| !t.is_finite()) {
+            self.skipped += 1;
+            return Ok(());
+        }
+        let origin = *self.origin.get_or_insert_with(|| local_origin(Some(p)));
+        if let Some(s) = scan {
+            let slot = self.slot(s)?;
+            self.cloud.scan.push(slot);
+        }
+        if let Some(t) = time {
+            self.cloud.time.push(t);
+        }
+        self.cloud.xyz.push(to_local(origin, p));
+        Ok(())
+    }
+
+    fn slot(&mut self, s: f64) -> Result<u16, String> {
+        if !(s >= 0.0 && s <= f64::from(u32::MAX) && s.fract() == 0.0) {
+            return Err(format!(
+                "scan index {s} is not a whole number from 0 to {}",
+                u32::MAX
+            ));
+        }
+        let id = s as u32;
+        if let Some((last_id, slot)) = self.last {
+            if last_id == id {
+                return Ok(slot);
+            }
+        }
+        let next = self.cloud.scan_ids.len();
+        let slot = match self.slots.get(&id) {
+            Some(&slot) => slot,
+            None => {
+                if next > u16::MAX as usize {
+                    return Err(format!("more than {} distinct scan indices", next));
+                }
+                self.cloud.scan_ids.push(id);
+                self.slots.insert(id, next as u16);
+                next as u16
+            }
+        };
+        self.last = Some((id, slot));
+        Ok(slot)
+    }
+
+    fn finish(mut self, details: String) -> PointCloud {
+        self.cloud.origin = self.origin.unwrap_or_default();
+        // Only worth a reallocation when many points were skipped.
+        if self.cloud.xyz.capacity() > self.cloud.xyz.len() + self.cloud.xyz.len() / 8 {
+            self.cloud.xyz.shrink_to_fit();
+            self.cloud.scan.shrink_to_fit();
+            self.cloud.time.shrink_to_fit();
+        }
+        self.cloud.source = SourceInfo {
+            format: FORMAT.into(),
+            details,
+            skipped: self.skipped,
+            skipped_reason: (self.skipped > 0)
+                .then(|| "non-finite coordinate or time (NaN or infinite)".to_string()),
+            units: "m".into(),
+        };
+        self.cloud
+    }
+}
+
+/// The body reader: the stream, and where it is for error messages.
+struct Body<'a, R: BufRead> {
+    path: &'a Path,
+    header: &'a Header,
+    reader: &'a mut R,
+    offset: u64,
+    line: u64,
+    text: String,
+}
+
+impl<R: BufRead> Body<'_, R> {
+    fn big(&self) -> bool {
+        self.header.encoding == Encoding::BinaryBigEndian
+    }
+
+    fn fill(&mut self, buf: &mut [u8], what: &str) -> Result<(), ReadError> {
+        self.reader.read_exact(buf).map_err(|e| {
+            let why = if e.kind() == std::io::ErrorKind::UnexpectedEof {
+                format!("the file is truncated: it ends inside {what}")
+            } else {
+                e.to_string()
+            };
+            invalid(self.path, why, Some(format!("byte offset {}", self.offset)))
+        })?;
+        self.offset += buf.len() as u64;
+        Ok(())
+    }
+
+    /// The next ASCII line, or a truncation error naming `what` was expected.
+    fn next_line(&mut self, what: &dyn Fn() -> String) -> Result<(), ReadError> {
+        self.text.clear();
+        let n = self.reader.read_line(&mut self.text).map_err(|e| {
+            invalid(
+                self.path,
+                e.to_string(),
+                Some(format!("line {}", self.line + 1)),
+            )
+        })?;
+        self.line += 1;
+        self.offset += n as u64;
+        if n == 0 {
+            return Err(invalid(
+                self.path,
+                format!("the file is truncated: it ends before {}", what()),
+                Some(format!("line {}", self.line)),
+            ));
+        }
+        Ok(())
+    }
+
+    fn skip_element(&mut self, element: &Element) -> Result<(), ReadError> {
+        match (self.header.encoding, element.fixed_size()) {
+            (Encoding::Ascii, _) => {
+                for k in 0..element.count {
+                    self.next_line(&|| format!("{} {k} of {}", element.name, element.count))?;
+                }
+                Ok(())
+            }
+            (_, Some(size)) => {
+                let bytes = size as u64 * element.count;
+                let copied = std::io::copy(&mut self.reader.take(bytes), &mut std::io::sink())
+                    .map_err(|e| invalid(self.path, e.to_string(), None))?;
+                if copied < bytes {
+                    return Err(invalid(
+                        self.path,
+                        format!(
+                            "the file is truncated: it ends inside element `{}`",
+                            element.name
+                        ),
+                        Some(format!("byte offset {}", self.offset + copied)),
+                    ));
+                }
+                self.offset += bytes;
+                Ok(())
+            }
+            (_, None) => {
+                let mut scratch = Vec::new();
+                for _ in 0..element.count {
+                    self.read_record(element, &mut scratch, &mut Vec::new())?;
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// Reads one binary record with lists, leaving each property's first value in `values`.
+    fn read_record(
+        &mut self,
+        element: &Element,
+        scratch: &mut Vec<u8>,
+        values: &mut Vec<f64>,
+    ) -> Result<(), ReadError> {
+        let big = self.big();
+        values.clear();
+        let what = format!("element `{}`", element.name);
+        for p in &element.properties {
+            match p.kind {
+                Kind::Scalar(s) => {
+                    let mut b = [0u8; 8];
+                    self.fill(&mut b[..s.size()], &what)?;
+                    values.push(s.decode(&b, big));
+                }
+                Kind::List { count, item } => {
+                    let mut b = [0u8; 8];
+                    self.fill(&mut b[..count.size()], &what)?;
+                    let n = count.decode(&b, big);
+                    if !(n >= 0.0 && n.fract() == 0.0 && n <= u32::MAX as f64) {
+                        return Err(invalid(
+                            self.path,
+                            format!("list property `{}` has an invalid length {n}", p.name),
+                            Some(format!("byte offset {}", self.offset)),
+                        ));
+                    }
+                    // Skip the items in bounded steps so a huge length cannot allocate.
+                    let mut left = n as u64 * item.size() as u64;
+                    while left > 0 {
+                        let step = left.min(1 << 16) as usize;
+                        scratch.resize(step, 0);
+                        let mut buf = std::mem::take(scratch);
+                        self.fill(&mut buf, &what)?;
+                        *scratch = buf;
+                        left -= step as u64;
+                    }
+                    values.push(f64::NAN);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn read_vertices(
+        &mut self,
+        vertex: &Element,
+        layout: Layout,
+        sink: &mut Sink,
+    ) -> Result<(), ReadError> {
+        match (self.header.encoding, vertex.fixed_size()) {
+            (Encoding::Ascii, _) => self.read_ascii_vertices(vertex, layout, sink),
+            (_, Some(size)) => self.read_fixed_vertices(vertex, size, layout, sink),
+            (_, None) => {
+                let mut scratch = Vec::new();
+                let mut values = Vec::with_capacity(vertex.properties.len());
+                for k in 0..vertex.count {
+                    let start = self.offset;
+                    self.read_record(vertex, &mut scratch, &mut values)?;
+                    self.push(sink, &values, layout, k, start)?;
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// The fast path: fixed-size binary records decoded a chunk at a time.
+    fn read_fixed_vertices(
+        &mut self,
+        vertex: &Element,
+        size: usize,
+        layout: Layout,
+        sink: &mut Sink,
+    ) -> Result<(), ReadError> {
+        let big = self.big();
+        let mut offsets = Vec::with_capacity(vertex.properties.len());
+        let mut at = 0;
+        let mut types = Vec::with_capacity(vertex.properties.len());
+        for p in &vertex.properties {
+            offsets.push(at);
+            if let Kind::Scalar(s) = p.kind {
+                types.push(s);
+                at += s.size();
+            }
+        }
+        let field = |k: usize| (offsets[k], types[k]);
+        let [x, y, z] = layout.xyz.map(field);
+        let scan = layout.scan.map(field);
+        let time = layout.time.map(field);
+        let mut buf = vec![0u8; size * CHUNK_VERTICES.min(vertex.count as usize).max(1)];
+        let mut done = 0u64;
+        while done < vertex.count {
+            let n = ((vertex.count - done) as usize).min(CHUNK_VERTICES);
+            let start = self.offset;
+            self.fill(&mut buf[..n * size], "the vertex data")
+                .map_err(|e| truncated_vertices(e, done, vertex.count))?;
+            for (i, rec) in buf[..n * size].chunks_exact(size).enumerate() {
+                let get = |(o, s): (usize, Scalar)| s.decode(&rec[o..], big);
+                let p = [get(x), get(y), get(z)];
+                sink.push(p, scan.map(get), time.map(get)).map_err(|why| {
+                    invalid(
+                        self.path,
+                        format!("vertex {}: {why}", done + i as u64),
+                        Some(format!("byte offset {}", start + (i * size) as u64)),
+                    )
+                })?;
+            }
+            done += n as u64;
+        }
+        Ok(())
+    }
+
+    fn read_ascii_vertices(
+        &mut self,
+        vertex: &Element,
+        layout: Layout,
+        sink: &mut Sink,
+    ) -> Result<(), ReadError> {
+        let mut values = Vec::with_capacity(vertex.properties.len());
+        for k in 0..vertex.count {
+            self.next_line(&|| format!("vertex {k} of {}", vertex.count))?;
+            values.clear();
+            let mut tokens = self.text.split_ascii_whitespace();
+            for p in &vertex.properties {
+                let mut next = |what: &str| -> Result<f64, ReadError> {
+                    let token = tokens.next().ok_or_else(|| {
+                        invalid(
+                            self.path,
+                            format!("vertex {k}: the line ends before {what}"),
+                            Some(format!("line {}", self.line)),
+                        )
+                    })?;
+                    parse_number(token).ok_or_else(|| {
+                        invalid(
+                            self.path,
+                            format!("vertex {k}: {what} is not a number: {token:?}"),
+                            Some(format!("line {}", self.line)),
+                        )
+                    })
+                };
+                match p.kind {
+                    Kind::Scalar(_) => values.push(next(&format!("property `{}`", p.name))?),
+                    Kind::List { .. } => {
+                        let n = next(&format!("the length of list `{}`", p.name))?;
+                        if !(n >= 0.0 && n.fract() == 0.0 && n <= 1.0e6) {
+                            return Err(invalid(
+                                self.path,
+                                format!("vertex {k}: list `{}` has an invalid length {n}", p.name),
+                                Some(format!("line {}", self.line)),
+                            ));
+                        }
+                        for _ in 0..n as usize {
+                            next(&format!("an item of list `{}`", p.name))?;
+                        }
+                        values.push(f64::NAN);
+                    }
+                }
+            }
+            let line = self.line;
+            let get = |i: usize| values[i];
+            sink.push(
+                layout.xyz.map(get),
+                layout.scan.map(get),
+                layout.time.map(get),
+            )
+            .map_err(|why| {
+                invalid(
+                    self.path,
+                    format!("vertex {k}: {why}"),
+                    Some(format!("line {line}")),
+                )
+            })?;
+        }
+        Ok(())
+    }
+
+    fn push(
+        &self,
+        sink: &mut Sink,
+        values: &[f64],
+        layout: Layout,
+        k: u64,
+        start: u64,
+    ) -> Result<(), ReadError> {
+        let get = |i: usize| values[i];
+        sink.push(
+            layout.xyz.map(get),
+            layout.scan.map(get),
+            layout.time.map(get),
+        )
+        .map_err(|why| {
+            invalid(
+                self.path,
+                format!("vertex {k}: {why}"),
+                Some(format!("byte offset {start}")),
+            )
+        })
+    }
+}
+
+/// ASCII numbers, including the `nan` and `inf` spellings some writers use.
+fn parse_number(token: &str) -> Option<f64> {
+    token.parse::<f64>().ok()
+}
+
+fn truncated_vertices(e: ReadError, done: u64, count: u64) -> ReadError {
+    match e {
+        ReadError::Invalid {
+            path,
+            format,
+            why,
+            at,
+        } if why.starts_with("the file is truncated") => ReadError::Invalid {
+            path,
+            format,
+            why: format!(
+                "the file is truncated: it ends inside the vertex data, after fewer than {} of the {count} vertices the header declares",
+                done + CHUNK_VERTICES.min((count - done) as usize) as u64
+            ),
+            at,
+        },
+        other => other,
+    }
+}
+
+pub(super) fn invalid(path: &Path, why: impl Into<String>, at: Option<String>) -> ReadError {
+    ReadError::Invalid {
+        path: path.display().to_string(),
+        format: FORMAT,
+        why: why.into(),
+        at,
+    }
+}
+
+pub(super) fn io_error(path: &Path, source: std::io::Error) -> ReadError {
+    ReadError::Io {
+        path: path.display().to_string(),
+        source,
+    }
+}

@@ -1,0 +1,137 @@
+//! `asbuilt simulate` as users run it: the files it writes read back, and bad options fail in
+//! one line.
+
+use std::process::{Command, Output};
+
+fn asbuilt(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_asbuilt"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+/// A fresh folder inside a temporary directory that is removed when the guard drops.
+fn out_dir(name: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join(name);
+    (tmp, dir)
+}
+
+#[test]
+fn static_scan_writes_cloud_poses_and_truth() {
+    let (_tmp, dir) = out_dir("static");
+    let d = dir.to_str().unwrap();
+    let out = asbuilt(&[
+        "simulate",
+        "--building",
+        "rotated_l",
+        "--points",
+        "20000",
+        "--seed",
+        "3",
+        "--registration-error",
+        "0.01,0.1",
+        "--noise",
+        "0.002",
+        "--offset",
+        "500000,4100000,-20",
+        "--out",
+        d,
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let info = asbuilt(&[
+        "info",
+        dir.join("cloud.ply").to_str().unwrap(),
+        "--poses",
+        dir.join("poses.json").to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert!(
+        info.status.success(),
+        "{}",
+        String::from_utf8_lossy(&info.stderr)
+    );
+    assert!(text.contains("points: 20000"), "{text}");
+    assert!(text.contains("poses: 3"), "{text}");
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("truth.json")).unwrap()).unwrap();
+    assert_eq!(truth["type"], "FeatureCollection");
+    assert_eq!(truth["truth"]["building"], "rotated_l");
+    let story = &truth["features"][0];
+    assert_eq!(story["properties"]["kind"], "story");
+    // World coordinates: the offset is kept.
+    let x = story["geometry"]["coordinates"][0][0][0].as_f64().unwrap();
+    assert!((x - 500_000.0).abs() < 50.0, "{x}");
+    let walls = truth["truth"]["stories"][0]["walls"].as_array().unwrap();
+    assert!(walls.iter().all(|w| w["model"] == "line"));
+}
+
+#[test]
+fn mobile_ascii_scan_writes_a_trajectory() {
+    let (_tmp, dir) = out_dir("mobile");
+    let d = dir.to_str().unwrap();
+    let out = asbuilt(&[
+        "simulate",
+        "--building",
+        "curved_lobby",
+        "--points",
+        "5000",
+        "--mobile",
+        "--ascii",
+        "--out",
+        d,
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let head = std::fs::read(dir.join("cloud.ply")).unwrap();
+    assert!(head.starts_with(b"ply\nformat ascii 1.0\n"));
+    let info = asbuilt(&[
+        "info",
+        dir.join("cloud.ply").to_str().unwrap(),
+        "--trajectory",
+        dir.join("trajectory.json").to_str().unwrap(),
+    ]);
+    assert!(
+        info.status.success(),
+        "{}",
+        String::from_utf8_lossy(&info.stderr)
+    );
+    let truth = std::fs::read_to_string(dir.join("truth.json")).unwrap();
+    assert!(
+        truth.contains("\"model\":\"arc\""),
+        "the lobby has an arc wall"
+    );
+}
+
+#[test]
+fn bad_options_fail_in_one_line() {
+    let (_tmp, dir) = out_dir("bad");
+    let d = dir.to_str().unwrap();
+    for (args, want) in [
+        (vec!["--building", "castle"], "unknown building `castle`"),
+        (
+            vec!["--building", "square_room", "--offset", "1,2"],
+            "--offset takes 3",
+        ),
+        (
+            vec!["--building", "square_room", "--registration-error", "x,1"],
+            "--registration-error",
+        ),
+        (vec!["--building", "square_room", "--points", "0"], "points"),
+    ] {
+        let mut all = vec!["simulate", "--out", d];
+        all.extend(args);
+        let out = asbuilt(&all);
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.contains(want), "{err:?} should mention {want:?}");
+    }
+}
