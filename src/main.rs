@@ -22,6 +22,8 @@ enum Command {
     Info(cli::info::InfoArgs),
     /// Generate a synthetic building, scan it, and write the cloud, poses and ground truth.
     Simulate(cli::simulate::SimulateArgs),
+    /// Ask a running server or worker for /healthz; exit 0 when healthy (for container health checks).
+    Healthcheck(cli::healthcheck::HealthcheckArgs),
 }
 
 fn main() -> ExitCode {
@@ -30,6 +32,7 @@ fn main() -> ExitCode {
         Command::Plan(a) => cli::plan::run(a),
         Command::Info(a) => cli::info::run(a),
         Command::Simulate(a) => cli::simulate::run(a),
+        Command::Healthcheck(a) => cli::healthcheck::run(a),
     };
     match result {
         Ok(code) => code,
