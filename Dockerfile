@@ -27,7 +27,7 @@ USER 10001:10001
 WORKDIR /var/lib/asbuilt
 ENV ASBUILT_LISTEN=0.0.0.0:8080 \
     ASBUILT_DATA_DIR=/var/lib/asbuilt \
-    RUST_LOG=info
+    ASBUILT_LOG=info
 VOLUME ["/var/lib/asbuilt"]
 EXPOSE 8080
 # `asbuilt healthcheck` asks ASBUILT_LISTEN for /healthz over loopback; workers serve it too.
