@@ -22,6 +22,10 @@ enum Command {
     Info(cli::info::InfoArgs),
     /// Generate a synthetic building, scan it, and write the cloud, poses and ground truth.
     Simulate(cli::simulate::SimulateArgs),
+    /// Run the HTTP API and its workers (SQLite and a local data directory by default).
+    Serve(cli::serve::ServeArgs),
+    /// Create or upgrade the job database, then exit.
+    Migrate(cli::serve::ServeArgs),
 }
 
 fn main() -> ExitCode {
@@ -30,6 +34,8 @@ fn main() -> ExitCode {
         Command::Plan(a) => cli::plan::run(a),
         Command::Info(a) => cli::info::run(a),
         Command::Simulate(a) => cli::simulate::run(a),
+        Command::Serve(a) => cli::serve::run(a),
+        Command::Migrate(a) => cli::serve::migrate(a),
     };
     match result {
         Ok(code) => code,

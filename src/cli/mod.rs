@@ -3,4 +3,5 @@
 pub mod info;
 pub mod plan;
 mod progress;
+pub mod serve;
 pub mod simulate;
