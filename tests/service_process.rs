@@ -17,11 +17,12 @@ struct Proc {
 }
 
 fn serve(data: &Path, extra: &[&str]) -> Proc {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_asbuilt"))
-        .arg("serve")
-        .args(["--listen", "127.0.0.1:0", "--data-dir"])
-        .arg(data)
-        .args(extra)
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_asbuilt"));
+    cmd.arg("serve").arg("--data-dir").arg(data).args(extra);
+    if !extra.contains(&"--listen") {
+        cmd.args(["--listen", "127.0.0.1:0"]);
+    }
+    let mut child = cmd
         .env("ASBUILT_LOG", "info")
         .env_remove("ASBUILT_API_KEYS")
         .stderr(Stdio::piped())

@@ -39,17 +39,21 @@ try {
     jobs: document.querySelectorAll("#jobs li").length,
   }));
   // Zoom in: the scale bar must follow.
-  const before = seen.scale;
-  await page.mouse.move(700, 500);
-  await page.mouse.wheel(0, -600);
-  seen.zoomedScale = await page.textContent("#scaletext");
+  const before = seen.scale + " " + (await page.getAttribute("#plan", "viewBox"));
+  const box = await page.locator("#plan").boundingBox();
+  await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+  await page.mouse.wheel(0, -800);
+  await page.waitForTimeout(200);
+  seen.zoomedScale = (await page.textContent("#scaletext")) + " " + (await page.getAttribute("#plan", "viewBox"));
   await page.screenshot({ path: shot, fullPage: true });
   console.log(JSON.stringify({ ...seen, external, errors }));
   if (seen.status !== "succeeded") await fail("status is " + seen.status);
   if (seen.walls < 1 || seen.areas < 1) await fail("no plan drawn");
   if (seen.downloads !== 3) await fail("downloads not enabled");
   if (!seen.upload.includes("SHA-256")) await fail("no upload summary");
-  if (seen.zoomedScale === before) await fail("scale bar did not change on zoom");
+  if (seen.zoomedScale === before) await fail("zoom changed nothing: " + before);
+  if (seen.zoomedScale.split(" ")[0] === before.split(" ")[0] && seen.zoomedScale.split(" ")[1] === before.split(" ")[1])
+    await fail("scale bar did not follow the zoom: " + before + " → " + seen.zoomedScale);
   if (external.length) await fail("external requests: " + external.join(", "));
   if (errors.length) await fail("page errors: " + errors.join("; "));
 } catch (e) {
