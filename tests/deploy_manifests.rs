@@ -44,7 +44,12 @@ fn validator(program: &str, args: &[&str]) -> Option<std::process::Output> {
                 std::env::var_os("CI").is_none(),
                 "{program} is not installed but CI is set: .ci/backends.sh installs it"
             );
-            eprintln!("skipping the {program} check: {program} is not installed (pip install it)");
+            // Straight to stderr: the test harness captures eprintln! of passing tests.
+            use std::io::Write;
+            let _ = writeln!(
+                std::io::stderr(),
+                "skipping the {program} check: {program} is not installed (pip install it)"
+            );
             None
         }
         Err(e) => panic!("{program}: {e}"),
@@ -268,7 +273,9 @@ fn compose_runs_postgres_minio_one_api_and_n_workers() {
         );
         let env = compose_env(&services[name]);
         let get = |k: &str| env.iter().find(|(n, _)| n == k).map(|(_, v)| v.as_str());
-        assert!(get("ASBUILT_DATABASE").unwrap().starts_with("postgres://"));
+        assert!(get("ASBUILT_DATABASE_URL")
+            .unwrap()
+            .starts_with("postgres://"));
         assert_eq!(get("ASBUILT_STORAGE"), Some("s3://asbuilt/jobs"));
         assert_eq!(get("AWS_ENDPOINT"), Some("http://minio:9000"));
         assert!(get("ASBUILT_LISTEN").is_some(), "{name} has no health port");
@@ -546,7 +553,7 @@ fn secret_is_a_template_with_placeholders_only() {
     let secret = resource(&all, "Secret", "asbuilt");
     let data = secret["stringData"].as_hash().unwrap();
     for key in [
-        "ASBUILT_DATABASE",
+        "ASBUILT_DATABASE_URL",
         "AWS_ACCESS_KEY_ID",
         "AWS_SECRET_ACCESS_KEY",
     ] {
@@ -577,7 +584,7 @@ fn the_readme_covers_compose_kubernetes_and_the_settings() {
         "docker compose",
         "kubectl apply -k",
         "asbuilt migrate",
-        "ASBUILT_DATABASE",
+        "ASBUILT_DATABASE_URL",
         "ASBUILT_STORAGE",
         "AWS_ENDPOINT",
     ] {
@@ -587,4 +594,49 @@ fn the_readme_covers_compose_kubernetes_and_the_settings() {
         );
     }
     assert!(Path::new(&root().join("deploy/kubernetes/secret.template.yaml")).exists());
+}
+
+/// Every `ASBUILT_*` variable the deploy files set is one the binary reads (as clap's env
+/// twin of a `serve`, `worker` or `migrate` flag), so a typo cannot silently do nothing.
+#[test]
+fn deploy_files_set_only_variables_the_binary_reads() {
+    let mut known = BTreeSet::new();
+    for cmd in ["serve", "worker", "migrate", "healthcheck"] {
+        let out = Command::new(env!("CARGO_BIN_EXE_asbuilt"))
+            .args([cmd, "--help"])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "asbuilt {cmd} --help");
+        let help = String::from_utf8_lossy(&out.stdout).into_owned();
+        for part in help.split("[env: ").skip(1) {
+            known.insert(part.split(['=', ']']).next().unwrap().to_string());
+        }
+    }
+    // Read by the logger, not by a flag.
+    known.insert("ASBUILT_LOG".into());
+    assert!(known.contains("ASBUILT_DATABASE_URL") && known.contains("ASBUILT_STORAGE"));
+    let mut files = vec![
+        "Dockerfile".to_string(),
+        "deploy/docker-compose.yml".to_string(),
+    ];
+    for (file, _) in k8s_resources() {
+        files.push(format!("{K8S}/{file}"));
+    }
+    for file in files {
+        let text = read(&file);
+        for (i, _) in text.match_indices("ASBUILT_") {
+            let name: String = text[i..]
+                .chars()
+                .take_while(|c| c.is_ascii_uppercase() || c.is_ascii_digit() || *c == '_')
+                .collect();
+            // Compose's own interpolation variables are not the binary's.
+            if name == "ASBUILT_WORKER_REPLICAS" {
+                continue;
+            }
+            assert!(
+                known.contains(&name),
+                "{file} sets {name}, which asbuilt does not read"
+            );
+        }
+    }
 }

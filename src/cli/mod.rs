@@ -4,4 +4,5 @@ pub mod healthcheck;
 pub mod info;
 pub mod plan;
 mod progress;
+pub mod serve;
 pub mod simulate;

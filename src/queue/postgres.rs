@@ -531,6 +531,9 @@ mod tests {
         let newer = schema_verdict(&applied(&[1, 99]), &known).unwrap_err().0;
         assert!(newer.contains("newer than this binary"), "{newer}");
         let changed = schema_verdict(&[(1, vec![0u8; 48])], &known).unwrap_err().0;
-        assert!(changed.contains("changed after it was applied"), "{changed}");
+        assert!(
+            changed.contains("changed after it was applied"),
+            "{changed}"
+        );
     }
 }

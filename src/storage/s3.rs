@@ -43,7 +43,9 @@ impl S3Url {
                 .chars()
                 .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-' || c == '.');
         if !bucket_ok {
-            return Err(bad("the bucket must be 3-63 lower-case letters, digits, '-' or '.'"));
+            return Err(bad(
+                "the bucket must be 3-63 lower-case letters, digits, '-' or '.'",
+            ));
         }
         let prefix = prefix.trim_matches('/');
         if prefix

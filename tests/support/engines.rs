@@ -20,8 +20,12 @@ pub struct Engines {
 
 /// The configured engines, or `None` (after printing why) when the tests should skip.
 pub fn engines(test: &str) -> Option<Engines> {
-    let pg = std::env::var("ASBUILT_TEST_POSTGRES").ok().filter(|s| !s.is_empty());
-    let s3 = std::env::var("ASBUILT_TEST_S3_ENDPOINT").ok().filter(|s| !s.is_empty());
+    let pg = std::env::var("ASBUILT_TEST_POSTGRES")
+        .ok()
+        .filter(|s| !s.is_empty());
+    let s3 = std::env::var("ASBUILT_TEST_S3_ENDPOINT")
+        .ok()
+        .filter(|s| !s.is_empty());
     match (pg, s3) {
         (Some(postgres), Some(s3_endpoint)) => Some(Engines {
             postgres,
@@ -34,7 +38,9 @@ pub fn engines(test: &str) -> Option<Engines> {
                 std::env::var_os("CI").is_none(),
                 "{test}: CI is set but the engines are not: {why}"
             );
-            eprintln!("skipping {test}: {why}");
+            // Straight to stderr: the test harness captures eprintln! of passing tests.
+            use std::io::Write;
+            let _ = writeln!(std::io::stderr(), "skipping {test}: {why}");
             None
         }
     }
@@ -70,7 +76,11 @@ impl Engines {
 
     /// The database URL with `search_path` set to `schema`.
     pub fn url_in(&self, schema: &str) -> String {
-        let sep = if self.postgres.contains('?') { '&' } else { '?' };
+        let sep = if self.postgres.contains('?') {
+            '&'
+        } else {
+            '?'
+        };
         format!("{}{sep}options=-c%20search_path%3D{schema}", self.postgres)
     }
 
@@ -82,7 +92,10 @@ impl Engines {
             .build()
             .unwrap();
         let resp = client
-            .put(format!("{}/{bucket}", self.s3_endpoint.trim_end_matches('/')))
+            .put(format!(
+                "{}/{bucket}",
+                self.s3_endpoint.trim_end_matches('/')
+            ))
             .send()
             .await
             .expect("the S3 server answers");
