@@ -14,7 +14,9 @@ async fn main() {
         std::process::exit(2);
     };
     assert!(
-        base.starts_with("http://127.") || base.starts_with("http://localhost") || base.starts_with("http://[::1]"),
+        base.starts_with("http://127.")
+            || base.starts_with("http://localhost")
+            || base.starts_with("http://[::1]"),
         "loopback targets only"
     );
     let rate: u64 = rate.parse().expect("RATE");

@@ -4,8 +4,8 @@
 use std::collections::HashMap;
 
 use axum::extract::FromRequestParts;
-use axum::http::request::Parts;
 use axum::http::header::AUTHORIZATION;
+use axum::http::request::Parts;
 use sha2::{Digest, Sha256};
 
 use crate::app::AppState;
@@ -44,7 +44,9 @@ impl Keys {
         let key = authorization
             .and_then(|h| h.strip_prefix("Bearer "))
             .map(str::trim)
-            .ok_or_else(|| ApiError::new("unauthorized", "send `Authorization: Bearer <API key>`"))?;
+            .ok_or_else(|| {
+                ApiError::new("unauthorized", "send `Authorization: Bearer <API key>`")
+            })?;
         let digest: [u8; 32] = Sha256::digest(key.as_bytes()).into();
         self.by_digest
             .get(&digest)
@@ -76,8 +78,14 @@ mod tests {
     fn keys_name_their_tenant() {
         let keys = Keys::new(&["acme:key-one-1234".into(), "bolt:key-two-1234".into()]);
         assert_eq!(keys.tenant(Some("Bearer key-two-1234")).unwrap(), "bolt");
-        assert_eq!(keys.tenant(Some("Bearer nope")).unwrap_err().code, "unauthorized");
-        assert_eq!(keys.tenant(Some("key-one-1234")).unwrap_err().code, "unauthorized");
+        assert_eq!(
+            keys.tenant(Some("Bearer nope")).unwrap_err().code,
+            "unauthorized"
+        );
+        assert_eq!(
+            keys.tenant(Some("key-one-1234")).unwrap_err().code,
+            "unauthorized"
+        );
         assert_eq!(keys.tenant(None).unwrap_err().status, 401);
         assert_eq!(Keys::new(&[]).tenant(None).unwrap(), DEV_TENANT);
     }

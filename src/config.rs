@@ -156,7 +156,12 @@ pub struct ConfigArgs {
     #[arg(long, env = "ASBUILT_SHUTDOWN_TIMEOUT", value_name = "SECS")]
     pub shutdown_timeout: Option<u64>,
     /// API keys, `tenant:key`, comma-separated or repeated. None: development mode.
-    #[arg(long = "api-key", env = "ASBUILT_API_KEYS", value_name = "TENANT:KEY", value_delimiter = ',')]
+    #[arg(
+        long = "api-key",
+        env = "ASBUILT_API_KEYS",
+        value_name = "TENANT:KEY",
+        value_delimiter = ','
+    )]
     pub api_keys: Vec<String>,
     /// Testing aid: a synthetic pipeline taking MS per stage instead of the real one.
     #[arg(long, env = "ASBUILT_FAKE_PIPELINE_MS", value_name = "MS", hide = true)]
@@ -247,9 +252,9 @@ impl Config {
 
     /// The database URL, defaulting to a file in the data directory.
     pub fn database_url(&self) -> String {
-        self.database_url.clone().unwrap_or_else(|| {
-            format!("sqlite://{}", self.data_dir.join("asbuilt.db").display())
-        })
+        self.database_url
+            .clone()
+            .unwrap_or_else(|| format!("sqlite://{}", self.data_dir.join("asbuilt.db").display()))
     }
 
     /// True when jobs live in a database other processes share (PostgreSQL): its schema is
@@ -287,7 +292,11 @@ pub fn parse_size(s: &str) -> Result<u64, String> {
                 'M' => 20,
                 'G' => 30,
                 'T' => 40,
-                _ => return Err(format!("`{s}`: unknown size suffix `{c}` (use K, M, G or T)")),
+                _ => {
+                    return Err(format!(
+                        "`{s}`: unknown size suffix `{c}` (use K, M, G or T)"
+                    ))
+                }
             };
             (&s[..i], shift)
         }

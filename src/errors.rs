@@ -8,30 +8,90 @@ use serde::Serialize;
 
 /// Every request error code, its HTTP status, and what it means.
 pub const CODES: &[(&str, u16, &str)] = &[
-    ("invalid_request", 400, "The request is malformed (bad query string, body or header)."),
-    ("invalid_multipart", 400, "The multipart body could not be read."),
+    (
+        "invalid_request",
+        400,
+        "The request is malformed (bad query string, body or header).",
+    ),
+    (
+        "invalid_multipart",
+        400,
+        "The multipart body could not be read.",
+    ),
     ("unauthorized", 401, "No API key, or an unknown one."),
-    ("not_found", 404, "No such job for this API key (other tenants' jobs are not found either)."),
+    (
+        "not_found",
+        404,
+        "No such job for this API key (other tenants' jobs are not found either).",
+    ),
     ("route_not_found", 404, "No such endpoint."),
-    ("method_not_allowed", 405, "The endpoint exists but not with this method."),
-    ("result_not_ready", 409, "The job has not succeeded (yet), so it has no result."),
-    ("payload_too_large", 413, "The upload or one of its parts is over the size limit; nothing was kept."),
-    ("unsupported_format", 415, "The upload is not a point cloud format asbuilt reads (PLY, E57, LAS/LAZ, XYZ/PTS)."),
-    ("missing_cloud", 422, "The request has no cloud (empty body, or no `cloud` part)."),
-    ("invalid_parameter", 422, "A parameter is unknown or has a bad value; `param` names it."),
-    ("invalid_sidecar", 422, "The poses or trajectory part is not a JSON object."),
-    ("internal", 500, "Something failed on the server; the log has the detail."),
-    ("unavailable", 503, "The server is shutting down or its storage does not answer."),
+    (
+        "method_not_allowed",
+        405,
+        "The endpoint exists but not with this method.",
+    ),
+    (
+        "result_not_ready",
+        409,
+        "The job has not succeeded (yet), so it has no result.",
+    ),
+    (
+        "payload_too_large",
+        413,
+        "The upload or one of its parts is over the size limit; nothing was kept.",
+    ),
+    (
+        "unsupported_format",
+        415,
+        "The upload is not a point cloud format asbuilt reads (PLY, E57, LAS/LAZ, XYZ/PTS).",
+    ),
+    (
+        "missing_cloud",
+        422,
+        "The request has no cloud (empty body, or no `cloud` part).",
+    ),
+    (
+        "invalid_parameter",
+        422,
+        "A parameter is unknown or has a bad value; `param` names it.",
+    ),
+    (
+        "invalid_sidecar",
+        422,
+        "The poses or trajectory part is not a JSON object.",
+    ),
+    (
+        "internal",
+        500,
+        "Something failed on the server; the log has the detail.",
+    ),
+    (
+        "unavailable",
+        503,
+        "The server is shutting down or its storage does not answer.",
+    ),
 ];
 
 /// Every code a failed job can carry in `error.code`, and what it means.
 pub const JOB_CODES: &[(&str, &str)] = &[
-    ("unknown_format", "The file's content is not a format the readers know."),
+    (
+        "unknown_format",
+        "The file's content is not a format the readers know.",
+    ),
     ("invalid_file", "The cloud file is damaged or inconsistent."),
-    ("invalid_poses", "The pose or trajectory sidecar does not fit the cloud."),
+    (
+        "invalid_poses",
+        "The pose or trajectory sidecar does not fit the cloud.",
+    ),
     ("io_error", "The cloud could not be read from storage."),
-    ("too_many_points", "The cloud has more points than the server's limit."),
-    ("invalid_parameter", "A parameter was rejected by the pipeline."),
+    (
+        "too_many_points",
+        "The cloud has more points than the server's limit.",
+    ),
+    (
+        "invalid_parameter",
+        "A parameter was rejected by the pipeline.",
+    ),
     ("empty_cloud", "The cloud has no points."),
     ("bad_cloud", "The cloud is inconsistent."),
     ("no_stories", "No story (floor and ceiling pair) was found."),
@@ -42,9 +102,18 @@ pub const JOB_CODES: &[(&str, &str)] = &[
     ("fitting_failed", "Wall fitting failed."),
     ("no_plan", "No story produced a plan."),
     ("output_failed", "A result file could not be written."),
-    ("time_limit", "The job ran longer than the server's time limit."),
-    ("worker_lost", "The job's worker stopped responding too many times."),
-    ("pipeline_panic", "The pipeline crashed on this input (a bug: please report it)."),
+    (
+        "time_limit",
+        "The job ran longer than the server's time limit.",
+    ),
+    (
+        "worker_lost",
+        "The job's worker stopped responding too many times.",
+    ),
+    (
+        "pipeline_panic",
+        "The pipeline crashed on this input (a bug: please report it).",
+    ),
 ];
 
 /// An error answered to a request.

@@ -87,34 +87,76 @@ impl Metrics {
         for (status, n) in by_status {
             let _ = writeln!(out, "asbuilt_jobs{{status=\"{}\"}} {n}", status.as_str());
         }
-        let _ = writeln!(out, "# HELP asbuilt_upload_bytes_total Bytes of accepted uploads.");
+        let _ = writeln!(
+            out,
+            "# HELP asbuilt_upload_bytes_total Bytes of accepted uploads."
+        );
         let _ = writeln!(out, "# TYPE asbuilt_upload_bytes_total counter");
-        let _ = writeln!(out, "asbuilt_upload_bytes_total {}", self.upload_bytes.load(Ordering::Relaxed));
+        let _ = writeln!(
+            out,
+            "asbuilt_upload_bytes_total {}",
+            self.upload_bytes.load(Ordering::Relaxed)
+        );
         let _ = writeln!(out, "# HELP asbuilt_uploads_total Accepted uploads.");
         let _ = writeln!(out, "# TYPE asbuilt_uploads_total counter");
-        let _ = writeln!(out, "asbuilt_uploads_total {}", self.uploads.load(Ordering::Relaxed));
-        let _ = writeln!(out, "# HELP asbuilt_uploads_rejected_total Refused uploads, by error code.");
+        let _ = writeln!(
+            out,
+            "asbuilt_uploads_total {}",
+            self.uploads.load(Ordering::Relaxed)
+        );
+        let _ = writeln!(
+            out,
+            "# HELP asbuilt_uploads_rejected_total Refused uploads, by error code."
+        );
         let _ = writeln!(out, "# TYPE asbuilt_uploads_rejected_total counter");
         for (code, n) in self.rejected_uploads.lock().expect("metrics lock").iter() {
             let _ = writeln!(out, "asbuilt_uploads_rejected_total{{code=\"{code}\"}} {n}");
         }
-        let _ = writeln!(out, "# HELP asbuilt_job_failures_total Failed jobs, by error code.");
+        let _ = writeln!(
+            out,
+            "# HELP asbuilt_job_failures_total Failed jobs, by error code."
+        );
         let _ = writeln!(out, "# TYPE asbuilt_job_failures_total counter");
         for (code, n) in self.failures.lock().expect("metrics lock").iter() {
             let _ = writeln!(out, "asbuilt_job_failures_total{{code=\"{code}\"}} {n}");
         }
-        let _ = writeln!(out, "# HELP asbuilt_jobs_succeeded_total Jobs this process completed.");
+        let _ = writeln!(
+            out,
+            "# HELP asbuilt_jobs_succeeded_total Jobs this process completed."
+        );
         let _ = writeln!(out, "# TYPE asbuilt_jobs_succeeded_total counter");
-        let _ = writeln!(out, "asbuilt_jobs_succeeded_total {}", self.completed.load(Ordering::Relaxed));
-        let _ = writeln!(out, "# HELP asbuilt_stage_duration_seconds Pipeline stage durations of succeeded jobs.");
+        let _ = writeln!(
+            out,
+            "asbuilt_jobs_succeeded_total {}",
+            self.completed.load(Ordering::Relaxed)
+        );
+        let _ = writeln!(
+            out,
+            "# HELP asbuilt_stage_duration_seconds Pipeline stage durations of succeeded jobs."
+        );
         let _ = writeln!(out, "# TYPE asbuilt_stage_duration_seconds histogram");
         for (stage, h) in self.stages.lock().expect("metrics lock").iter() {
             for (le, n) in BUCKETS.iter().zip(h.counts) {
-                let _ = writeln!(out, "asbuilt_stage_duration_seconds_bucket{{stage=\"{stage}\",le=\"{le}\"}} {n}");
+                let _ = writeln!(
+                    out,
+                    "asbuilt_stage_duration_seconds_bucket{{stage=\"{stage}\",le=\"{le}\"}} {n}"
+                );
             }
-            let _ = writeln!(out, "asbuilt_stage_duration_seconds_bucket{{stage=\"{stage}\",le=\"+Inf\"}} {}", h.count);
-            let _ = writeln!(out, "asbuilt_stage_duration_seconds_sum{{stage=\"{stage}\"}} {}", h.sum);
-            let _ = writeln!(out, "asbuilt_stage_duration_seconds_count{{stage=\"{stage}\"}} {}", h.count);
+            let _ = writeln!(
+                out,
+                "asbuilt_stage_duration_seconds_bucket{{stage=\"{stage}\",le=\"+Inf\"}} {}",
+                h.count
+            );
+            let _ = writeln!(
+                out,
+                "asbuilt_stage_duration_seconds_sum{{stage=\"{stage}\"}} {}",
+                h.sum
+            );
+            let _ = writeln!(
+                out,
+                "asbuilt_stage_duration_seconds_count{{stage=\"{stage}\"}} {}",
+                h.count
+            );
         }
         out
     }
@@ -136,8 +178,12 @@ mod tests {
         assert!(text.contains("asbuilt_jobs{status=\"running\"} 2\n"));
         assert!(text.contains("asbuilt_upload_bytes_total 150\n"));
         assert!(text.contains("asbuilt_job_failures_total{code=\"time_limit\"} 1\n"));
-        assert!(text.contains("asbuilt_stage_duration_seconds_bucket{stage=\"label\",le=\"0.5\"} 0\n"));
-        assert!(text.contains("asbuilt_stage_duration_seconds_bucket{stage=\"label\",le=\"1\"} 1\n"));
+        assert!(
+            text.contains("asbuilt_stage_duration_seconds_bucket{stage=\"label\",le=\"0.5\"} 0\n")
+        );
+        assert!(
+            text.contains("asbuilt_stage_duration_seconds_bucket{stage=\"label\",le=\"1\"} 1\n")
+        );
         assert!(text.contains("asbuilt_stage_duration_seconds_sum{stage=\"total\"} 2\n"));
     }
 }

@@ -53,7 +53,10 @@ pub fn build(state: AppState) -> Router {
                 .layer(DefaultBodyLimit::disable())
                 .get(jobs::list::list),
         )
-        .route("/v1/jobs/{id}", get(jobs::show::show).delete(jobs::delete::delete))
+        .route(
+            "/v1/jobs/{id}",
+            get(jobs::show::show).delete(jobs::delete::delete),
+        )
         .route("/v1/jobs/{id}/events", get(jobs::events::events))
         .route("/v1/jobs/{id}/plan.geojson", get(jobs::results::geojson))
         .route("/v1/jobs/{id}/plan.svg", get(jobs::results::svg))

@@ -19,7 +19,10 @@ async fn the_page_uploads_follows_and_draws_the_plan() {
         completions: None,
         spin: false,
     });
-    let s = common::start(pipeline, |c| c.api_keys = vec!["acme:acme-browser-key".into()]).await;
+    let s = common::start(pipeline, |c| {
+        c.api_keys = vec!["acme:acme-browser-key".into()]
+    })
+    .await;
     let cloud = s.dir.path().join("room.xyz");
     std::fs::write(&cloud, common::xyz(500)).unwrap();
     let shot = std::env::temp_dir().join("asbuilt-page.png");
@@ -28,6 +31,9 @@ async fn the_page_uploads_follows_and_draws_the_plan() {
     assert_eq!(seen["walls"], 2, "{seen}");
     assert_eq!(seen["arcs"], 1, "{seen}");
     assert!(seen["jobs"].as_u64().unwrap() >= 1);
-    assert!(std::fs::metadata(&shot).unwrap().len() > 10_000, "a real screenshot");
+    assert!(
+        std::fs::metadata(&shot).unwrap().len() > 10_000,
+        "a real screenshot"
+    );
     eprintln!("screenshot: {}", shot.display());
 }

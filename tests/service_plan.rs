@@ -20,7 +20,11 @@ fn simulate(dir: &Path) {
         .arg(dir)
         .output()
         .unwrap();
-    assert!(out.status.success(), "simulate: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "simulate: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(dir.join("cloud.ply").is_file() && dir.join("poses.json").is_file());
 }
 
@@ -28,7 +32,8 @@ fn signed_area(ring: &[Value]) -> f64 {
     ring.windows(2)
         .map(|w| {
             let (a, b) = (&w[0], &w[1]);
-            a[0].as_f64().unwrap() * b[1].as_f64().unwrap() - b[0].as_f64().unwrap() * a[1].as_f64().unwrap()
+            a[0].as_f64().unwrap() * b[1].as_f64().unwrap()
+                - b[0].as_f64().unwrap() * a[1].as_f64().unwrap()
         })
         .sum::<f64>()
         / 2.0
@@ -46,7 +51,10 @@ fn check_contract(doc: &Value) {
     assert_eq!(timings.first().unwrap().as_str(), "read");
     assert_eq!(timings.last().unwrap().as_str(), "total");
     let features = doc["features"].as_array().unwrap();
-    let stories: Vec<&Value> = features.iter().filter(|f| f["properties"]["kind"] == "story").collect();
+    let stories: Vec<&Value> = features
+        .iter()
+        .filter(|f| f["properties"]["kind"] == "story")
+        .collect();
     assert!(!stories.is_empty());
     for story in &stories {
         let g = &story["geometry"];
@@ -60,14 +68,23 @@ fn check_contract(doc: &Value) {
                 let ring = ring.as_array().unwrap();
                 assert!(ring.len() >= 4);
                 assert_eq!(ring.first(), ring.last(), "closed ring");
-                assert!(ring.iter().all(|p| p.as_array().unwrap().len() == 2), "no z");
+                assert!(
+                    ring.iter().all(|p| p.as_array().unwrap().len() == 2),
+                    "no z"
+                );
                 let a = signed_area(ring);
-                assert!(if i == 0 { a > 0.0 } else { a < 0.0 }, "winding of ring {i}: {a}");
+                assert!(
+                    if i == 0 { a > 0.0 } else { a < 0.0 },
+                    "winding of ring {i}: {a}"
+                );
             }
         }
         assert!(story["properties"]["area_m2"].as_f64().unwrap() > 1.0);
     }
-    let walls: Vec<&Value> = features.iter().filter(|f| f["properties"]["kind"] == "wall").collect();
+    let walls: Vec<&Value> = features
+        .iter()
+        .filter(|f| f["properties"]["kind"] == "wall")
+        .collect();
     assert!(!walls.is_empty());
     for w in walls {
         assert_eq!(w["geometry"]["type"], "LineString");
@@ -87,7 +104,8 @@ async fn a_simulated_scan_becomes_a_plan_over_http() {
     let form = reqwest::multipart::Form::new()
         .part(
             "cloud",
-            reqwest::multipart::Part::bytes(std::fs::read(scan.join("cloud.ply")).unwrap()).file_name("cloud.ply"),
+            reqwest::multipart::Part::bytes(std::fs::read(scan.join("cloud.ply")).unwrap())
+                .file_name("cloud.ply"),
         )
         .part(
             "poses",
@@ -101,11 +119,32 @@ async fn a_simulated_scan_becomes_a_plan_over_http() {
     let done = s.wait_done(id, Duration::from_secs(300)).await;
     assert_eq!(done["status"], "succeeded", "{done}");
     assert_eq!(done["input"]["format"], "ply");
-    let doc: Value = s.get(&format!("/v1/jobs/{id}/plan.geojson")).send().await.unwrap().json().await.unwrap();
+    let doc: Value = s
+        .get(&format!("/v1/jobs/{id}/plan.geojson"))
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
     check_contract(&doc);
-    let svg = s.get(&format!("/v1/jobs/{id}/plan.svg")).send().await.unwrap().text().await.unwrap();
+    let svg = s
+        .get(&format!("/v1/jobs/{id}/plan.svg"))
+        .send()
+        .await
+        .unwrap()
+        .text()
+        .await
+        .unwrap();
     assert!(svg.contains("<svg") && svg.contains("Level 0"));
-    let dxf = s.get(&format!("/v1/jobs/{id}/plan.dxf")).send().await.unwrap().text().await.unwrap();
+    let dxf = s
+        .get(&format!("/v1/jobs/{id}/plan.dxf"))
+        .send()
+        .await
+        .unwrap()
+        .text()
+        .await
+        .unwrap();
     assert!(dxf.contains("AC1009") && dxf.contains("STORY_0") && dxf.ends_with("EOF\n"));
 }
 
@@ -119,7 +158,8 @@ async fn the_page_draws_a_simulated_scan() {
     simulate(&scan);
     let shot = std::env::temp_dir().join("asbuilt-page-simulated.png");
     let poses = scan.join("poses.json");
-    let seen = common::browser_upload(&s.base, &scan.join("cloud.ply"), Some(&poses), &shot, None).await;
+    let seen =
+        common::browser_upload(&s.base, &scan.join("cloud.ply"), Some(&poses), &shot, None).await;
     assert_eq!(seen["status"], "succeeded");
     assert!(seen["walls"].as_u64().unwrap() >= 4, "{seen}");
 }

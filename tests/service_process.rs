@@ -63,14 +63,25 @@ fn get(url: &str) -> Value {
 mod reqwest {
     //! A tiny blocking client over the async one, for these process tests.
     pub fn blocking_get(url: &str) -> serde_json::Value {
-        let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
         rt.block_on(async { ::reqwest::get(url).await.unwrap().json().await.unwrap() })
     }
 
     pub fn blocking_post(url: &str, body: String) -> serde_json::Value {
-        let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
         rt.block_on(async {
-            let res = ::reqwest::Client::new().post(url).body(body).send().await.unwrap();
+            let res = ::reqwest::Client::new()
+                .post(url)
+                .body(body)
+                .send()
+                .await
+                .unwrap();
             assert_eq!(res.status(), 202);
             res.json().await.unwrap()
         })
@@ -91,11 +102,21 @@ fn statuses(base: &str) -> Vec<String> {
 fn queued_jobs_survive_sigkill_and_run_exactly_once() {
     let dir = tempfile::tempdir().unwrap();
     // Seven stages of 250 ms: each job runs ~1.75 s; two workers; 2 s leases.
-    let args = ["--workers", "2", "--lease", "2", "--fake-pipeline-ms", "250"];
+    let args = [
+        "--workers",
+        "2",
+        "--lease",
+        "2",
+        "--fake-pipeline-ms",
+        "250",
+    ];
     let mut first = serve(dir.path(), &args);
     let mut ids = vec![];
     for i in 0..5 {
-        let job = reqwest::blocking_post(&format!("{}/v1/jobs", first.base), format!("{i} 0 0\n1 1 1\n2 2 2\n"));
+        let job = reqwest::blocking_post(
+            &format!("{}/v1/jobs", first.base),
+            format!("{i} 0 0\n1 1 1\n2 2 2\n"),
+        );
         ids.push(job["id"].as_str().unwrap().to_string());
     }
     // Kill while work is in flight: some jobs done, some running, some queued.
@@ -141,7 +162,10 @@ fn without_keys_it_binds_loopback_and_says_so() {
     p.child.kill().unwrap();
     p.child.wait().unwrap();
     let log = p.early.join("\n");
-    assert!(log.contains("development mode binds to loopback only"), "{log}");
+    assert!(
+        log.contains("development mode binds to loopback only"),
+        "{log}"
+    );
 }
 
 #[test]
@@ -153,7 +177,11 @@ fn migrate_creates_the_database_and_is_idempotent() {
             .arg(dir.path())
             .output()
             .unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         assert!(String::from_utf8_lossy(&out.stderr).contains("migrated"));
     }
     assert!(dir.path().join("asbuilt.db").is_file());
@@ -169,5 +197,8 @@ fn bad_settings_are_refused_naming_the_setting() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("api key `acme`"), "{err}");
-    assert!(!err.contains("short"), "the key itself is not echoed: {err}");
+    assert!(
+        !err.contains("short"),
+        "the key itself is not echoed: {err}"
+    );
 }

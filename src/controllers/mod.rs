@@ -16,5 +16,8 @@ pub async fn route_not_found() -> ApiError {
 
 /// A known path with the wrong method.
 pub async fn method_not_allowed() -> ApiError {
-    ApiError::new("method_not_allowed", "this endpoint does not take that method; see /openapi.json")
+    ApiError::new(
+        "method_not_allowed",
+        "this endpoint does not take that method; see /openapi.json",
+    )
 }

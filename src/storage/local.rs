@@ -12,7 +12,8 @@ const LOCAL_CHUNK: usize = 1 << 20;
 
 /// Opens (creating if needed) a blob directory.
 pub fn open(dir: &Path) -> Result<ObjectBlobStore, BlobError> {
-    std::fs::create_dir_all(dir).map_err(|e| BlobError::Store(format!("{}: {e}", dir.display())))?;
+    std::fs::create_dir_all(dir)
+        .map_err(|e| BlobError::Store(format!("{}: {e}", dir.display())))?;
     let root = dir
         .canonicalize()
         .map_err(|e| BlobError::Store(format!("{}: {e}", dir.display())))?;
@@ -28,7 +29,8 @@ mod tests {
     use futures_util::StreamExt;
 
     fn chunks(n: usize, size: usize) -> ByteStream<'static> {
-        futures_util::stream::iter((0..n).map(move |i| Ok(Bytes::from(vec![i as u8; size])))).boxed()
+        futures_util::stream::iter((0..n).map(move |i| Ok(Bytes::from(vec![i as u8; size]))))
+            .boxed()
     }
 
     fn files_under(dir: &Path) -> Vec<std::path::PathBuf> {
@@ -59,14 +61,13 @@ mod tests {
         expected.extend(vec![1u8; 1000]);
         expected.extend(vec![2u8; 1000]);
         use sha2::Digest;
-        assert_eq!(stored.sha256, super::super::sha256_hex(sha2::Sha256::digest(&expected)));
+        assert_eq!(
+            stored.sha256,
+            super::super::sha256_hex(sha2::Sha256::digest(&expected))
+        );
         let blob = store.get("jobs/x/input/cloud").await.unwrap().unwrap();
         assert_eq!(blob.size, 3000);
-        let back: Vec<u8> = blob
-            .stream
-            .map(|c| c.unwrap().to_vec())
-            .concat()
-            .await;
+        let back: Vec<u8> = blob.stream.map(|c| c.unwrap().to_vec()).concat().await;
         assert_eq!(back, expected);
         assert_eq!(
             std::fs::read(store.local_path("jobs/x/input/cloud").unwrap()).unwrap(),
@@ -83,7 +84,10 @@ mod tests {
             .put_stream("jobs/x/input/cloud", chunks(5, 1 << 20), 3 << 20)
             .await
             .unwrap_err();
-        assert!(matches!(err, crate::storage::BlobError::TooLarge { .. }), "{err}");
+        assert!(
+            matches!(err, crate::storage::BlobError::TooLarge { .. }),
+            "{err}"
+        );
         assert_eq!(files_under(dir.path()), Vec::<std::path::PathBuf>::new());
     }
 
@@ -91,9 +95,18 @@ mod tests {
     async fn deletes_a_prefix_only() {
         let dir = tempfile::tempdir().unwrap();
         let store = open(dir.path()).unwrap();
-        store.put("jobs/a/result/plan.svg", Bytes::from_static(b"<svg/>")).await.unwrap();
-        store.put("jobs/a/input/cloud", Bytes::from_static(b"ply")).await.unwrap();
-        store.put("jobs/b/input/cloud", Bytes::from_static(b"ply")).await.unwrap();
+        store
+            .put("jobs/a/result/plan.svg", Bytes::from_static(b"<svg/>"))
+            .await
+            .unwrap();
+        store
+            .put("jobs/a/input/cloud", Bytes::from_static(b"ply"))
+            .await
+            .unwrap();
+        store
+            .put("jobs/b/input/cloud", Bytes::from_static(b"ply"))
+            .await
+            .unwrap();
         store.delete_prefix("jobs/a").await.unwrap();
         assert!(store.get("jobs/a/result/plan.svg").await.unwrap().is_none());
         assert!(store.get("jobs/b/input/cloud").await.unwrap().is_some());

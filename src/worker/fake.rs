@@ -117,8 +117,14 @@ impl Pipeline for FakePipeline {
             panic!("the fake pipeline was asked to panic");
         }
         if let Some(rest) = text.split("#fail:").nth(1) {
-            let code: String = rest.chars().take_while(|c| c.is_ascii_alphanumeric() || *c == '_').collect();
-            return Err(PipelineFailure::new(&code, "the fake pipeline was asked to fail"));
+            let code: String = rest
+                .chars()
+                .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+                .collect();
+            return Err(PipelineFailure::new(
+                &code,
+                "the fake pipeline was asked to fail",
+            ));
         }
         let points = text
             .lines()
@@ -141,7 +147,8 @@ impl Pipeline for FakePipeline {
             timings_ms: timings,
             geojson: geojson::to_geojson_string(&plan).into_bytes(),
             svg: svg::to_svg(&plan).into_bytes(),
-            dxf: dxf::to_dxf(&plan).map_err(|e| PipelineFailure::new("output_failed", e.to_string()))?,
+            dxf: dxf::to_dxf(&plan)
+                .map_err(|e| PipelineFailure::new("output_failed", e.to_string()))?,
         };
         if let Some(log) = &self.completions {
             let mut f = std::fs::OpenOptions::new()

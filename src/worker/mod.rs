@@ -126,8 +126,14 @@ impl Workers {
     }
 
     /// Turns the job's stored inputs into local files and parameters.
-    async fn prepare(&self, job: &Job, scratch: &std::path::Path) -> Result<JobInput, PipelineFailure> {
-        let io = |e: &dyn std::fmt::Display| PipelineFailure::new("io_error", format!("reading the upload: {e}"));
+    async fn prepare(
+        &self,
+        job: &Job,
+        scratch: &std::path::Path,
+    ) -> Result<JobInput, PipelineFailure> {
+        let io = |e: &dyn std::fmt::Display| {
+            PipelineFailure::new("io_error", format!("reading the upload: {e}"))
+        };
         let params: Params = serde_json::from_value(job.params.clone())
             .map_err(|e| PipelineFailure::new("invalid_parameter", e.to_string()))?;
         let blobs = &self.state.blobs;
@@ -138,7 +144,9 @@ impl Workers {
                 match local {
                     Some(p) => Ok::<_, PipelineFailure>(p),
                     None => {
-                        tokio::fs::create_dir_all(scratch).await.map_err(|e| io(&e))?;
+                        tokio::fs::create_dir_all(scratch)
+                            .await
+                            .map_err(|e| io(&e))?;
                         blobs.download(&key, &target).await.map_err(|e| io(&e))?;
                         Ok(target)
                     }
@@ -146,7 +154,12 @@ impl Workers {
             }
         };
         let cloud = fetch(keys::cloud(job.id), "cloud").await?;
-        let sidecar = match job.upload.sidecar.as_deref().and_then(SidecarKind::from_name) {
+        let sidecar = match job
+            .upload
+            .sidecar
+            .as_deref()
+            .and_then(SidecarKind::from_name)
+        {
             Some(kind) => Some((kind, fetch(keys::sidecar(job.id), "sidecar.json").await?)),
             None => None,
         };
@@ -204,7 +217,10 @@ impl Workers {
                     ("plan.svg", results.svg),
                     ("plan.dxf", results.dxf),
                 ] {
-                    self.state.blobs.put(&keys::result(id, name), Bytes::from(bytes)).await?;
+                    self.state
+                        .blobs
+                        .put(&keys::result(id, name), Bytes::from(bytes))
+                        .await?;
                 }
                 let timings: serde_json::Map<String, serde_json::Value> = results
                     .timings_ms

@@ -121,8 +121,9 @@ impl Pipeline for PlanPipeline {
         })?;
         check_points(cloud.len() as u64, input.max_points)?;
         if let Some((kind, path)) = &input.sidecar {
-            let text = std::fs::read_to_string(path)
-                .map_err(|e| PipelineFailure::new("invalid_poses", format!("{}: {e}", kind.name())))?;
+            let text = std::fs::read_to_string(path).map_err(|e| {
+                PipelineFailure::new("invalid_poses", format!("{}: {e}", kind.name()))
+            })?;
             let bad = |e: poses::PosesError| {
                 PipelineFailure::new("invalid_poses", format!("{}: {e}", kind.name()))
             };
@@ -141,10 +142,11 @@ impl Pipeline for PlanPipeline {
         if progress.cancelled() {
             return Err(PipelineFailure::cancelled());
         }
-        let mut plan = asbuilt_plan::plan(&cloud, &input.params, progress).map_err(|e| match e {
-            PlanError::Cancelled => PipelineFailure::cancelled(),
-            e => PipelineFailure::new(e.code(), e.to_string()),
-        })?;
+        let mut plan =
+            asbuilt_plan::plan(&cloud, &input.params, progress).map_err(|e| match e {
+                PlanError::Cancelled => PipelineFailure::cancelled(),
+                e => PipelineFailure::new(e.code(), e.to_string()),
+            })?;
         drop(cloud);
         plan.timings_ms.insert(0, ("read".into(), read_ms));
         if let Some((_, total)) = plan.timings_ms.iter_mut().find(|(n, _)| n == "total") {

@@ -41,7 +41,10 @@ pub async fn sweep(state: &AppState) -> anyhow::Result<()> {
         state.changed(*id);
     }
     let retention_ms = (state.config.retention_hours * 3_600_000) as i64;
-    let old = state.store.finished_before(now_ms() - retention_ms, 100).await?;
+    let old = state
+        .store
+        .finished_before(now_ms() - retention_ms, 100)
+        .await?;
     for id in old {
         // Blobs first: a row without blobs is harmless, blobs without a row would leak.
         state.blobs.delete_prefix(&keys::job_prefix(id)).await?;

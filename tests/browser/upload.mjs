@@ -38,14 +38,14 @@ try {
     upload: document.getElementById("uptext").textContent,
     jobs: document.querySelectorAll("#jobs li").length,
   }));
+  await page.screenshot({ path: shot, fullPage: true });
   // Zoom in: the scale bar must follow.
   const before = seen.scale + " " + (await page.getAttribute("#plan", "viewBox"));
   const box = await page.locator("#plan").boundingBox();
   await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
-  await page.mouse.wheel(0, -800);
+  await page.mouse.wheel(0, -400);
   await page.waitForTimeout(200);
   seen.zoomedScale = (await page.textContent("#scaletext")) + " " + (await page.getAttribute("#plan", "viewBox"));
-  await page.screenshot({ path: shot, fullPage: true });
   console.log(JSON.stringify({ ...seen, external, errors }));
   if (seen.status !== "succeeded") await fail("status is " + seen.status);
   if (seen.walls < 1 || seen.areas < 1) await fail("no plan drawn");

@@ -93,7 +93,11 @@ impl Server {
             if ["succeeded", "failed", "cancelled"].contains(&job["status"].as_str().unwrap()) {
                 return job;
             }
-            assert!(Instant::now() < end, "job still {} after {within:?}", job["status"]);
+            assert!(
+                Instant::now() < end,
+                "job still {} after {within:?}",
+                job["status"]
+            );
             tokio::time::sleep(Duration::from_millis(50)).await;
         }
     }
@@ -137,7 +141,9 @@ pub async fn expect_error(res: reqwest::Response, status: u16, code: &str) -> Va
     assert_eq!(res.status().as_u16(), status);
     let body: Value = res.json().await.unwrap();
     assert_eq!(body["error"]["code"], code, "{body}");
-    assert!(body["error"]["message"].as_str().is_some_and(|m| !m.is_empty()));
+    assert!(body["error"]["message"]
+        .as_str()
+        .is_some_and(|m| !m.is_empty()));
     body
 }
 
@@ -146,7 +152,11 @@ pub async fn expect_error(res: reqwest::Response, status: u16, code: &str) -> Va
 pub fn browser_missing() -> Option<String> {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/browser");
     let chromium = std::env::var("CHROMIUM").unwrap_or_else(|_| "/usr/bin/chromium".into());
-    let why = if std::process::Command::new("node").arg("--version").output().is_err() {
+    let why = if std::process::Command::new("node")
+        .arg("--version")
+        .output()
+        .is_err()
+    {
         Some("node is not installed".to_string())
     } else if !std::path::Path::new(&chromium).exists() {
         Some(format!("{chromium} is not installed"))
@@ -156,7 +166,10 @@ pub fn browser_missing() -> Option<String> {
         None
     };
     if let Some(why) = &why {
-        assert!(std::env::var_os("CI").is_none(), "browser test cannot run under CI: {why}");
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "browser test cannot run under CI: {why}"
+        );
         eprintln!("skipping the browser test: {why}");
     }
     why
@@ -173,7 +186,11 @@ pub async fn browser_upload(
 ) -> Value {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/browser");
     let mut cmd = tokio::process::Command::new("node");
-    cmd.current_dir(&dir).arg("upload.mjs").arg(base).arg(cloud).arg(shot);
+    cmd.current_dir(&dir)
+        .arg("upload.mjs")
+        .arg(base)
+        .arg(cloud)
+        .arg(shot);
     if let Some(k) = key {
         cmd.arg(k);
     }

@@ -85,7 +85,11 @@ async fn accept(
         .and_then(|v| v.to_str().ok())
         .and_then(|v| v.parse::<u64>().ok());
     let limit = state.config.max_upload_bytes;
-    let slack = if multipart { 2 * state.config.max_sidecar_bytes + (1 << 20) } else { 0 };
+    let slack = if multipart {
+        2 * state.config.max_sidecar_bytes + (1 << 20)
+    } else {
+        0
+    };
     if declared.is_some_and(|n| n > limit.saturating_add(slack)) {
         return Err(too_large(limit));
     }
@@ -113,7 +117,10 @@ async fn accept(
     let (received, params) = received;
     let Some((stored, format)) = received.cloud else {
         let _ = state.blobs.delete_prefix(&keys::job_prefix(id)).await;
-        return Err(ApiError::new("missing_cloud", "the request has no `cloud` part"));
+        return Err(ApiError::new(
+            "missing_cloud",
+            "the request has no `cloud` part",
+        ));
     };
     let job = state
         .store
@@ -171,7 +178,10 @@ fn too_large(limit: u64) -> ApiError {
 fn blob_error(e: BlobError) -> ApiError {
     match e {
         BlobError::TooLarge { limit } => too_large(limit),
-        BlobError::Source(e) => ApiError::new("invalid_request", format!("the upload was interrupted: {e}")),
+        BlobError::Source(e) => ApiError::new(
+            "invalid_request",
+            format!("the upload was interrupted: {e}"),
+        ),
         e => ApiError::internal(e),
     }
 }
@@ -185,7 +195,8 @@ fn params_error(e: &ParamsError, key: Option<&str>) -> ApiError {
         ParamsError::File(m) => m.split('`').nth(1).map(str::to_string),
     };
     ApiError::param(
-        name.or(key.map(str::to_string)).unwrap_or_else(|| "params".into()),
+        name.or(key.map(str::to_string))
+            .unwrap_or_else(|| "params".into()),
         e.to_string(),
     )
 }
@@ -201,7 +212,10 @@ async fn receive_raw(
     id: JobId,
     body: Body,
 ) -> Result<(Stored, &'static str), ApiError> {
-    let stream: ByteStream<'static> = body.into_data_stream().map_err(std::io::Error::other).boxed();
+    let stream: ByteStream<'static> = body
+        .into_data_stream()
+        .map_err(std::io::Error::other)
+        .boxed();
     store_cloud(state, id, stream).await
 }
 
@@ -256,7 +270,10 @@ async fn receive_multipart(
         match name.as_str() {
             "cloud" => {
                 if got.cloud.is_some() {
-                    return Err(ApiError::new("invalid_multipart", "more than one `cloud` part"));
+                    return Err(ApiError::new(
+                        "invalid_multipart",
+                        "more than one `cloud` part",
+                    ));
                 }
                 got.filename = field.file_name().map(clean_filename);
                 let stream = field.map_err(std::io::Error::other).boxed();
@@ -271,7 +288,10 @@ async fn receive_multipart(
                 }
                 let bytes = read_small(field, &name, small).await?;
                 let value: serde_json::Value = serde_json::from_slice(&bytes).map_err(|e| {
-                    ApiError::new("invalid_sidecar", format!("the `{name}` part is not JSON: {e}"))
+                    ApiError::new(
+                        "invalid_sidecar",
+                        format!("the `{name}` part is not JSON: {e}"),
+                    )
                 })?;
                 if !value.is_object() {
                     return Err(ApiError::new(
@@ -297,7 +317,10 @@ async fn receive_multipart(
             other => {
                 return Err(ApiError::new(
                     "invalid_multipart",
-                    format!("unknown part `{}`; send cloud, poses or trajectory, and params", clean_filename(other)),
+                    format!(
+                        "unknown part `{}`; send cloud, poses or trajectory, and params",
+                        clean_filename(other)
+                    ),
                 ))
             }
         }

@@ -69,7 +69,11 @@ impl Watch {
                     continue;
                 }
             };
-            let key = (job.status, job.stage.clone(), (job.progress * 1000.0) as u64);
+            let key = (
+                job.status,
+                job.stage.clone(),
+                (job.progress * 1000.0) as u64,
+            );
             if self.last.as_ref() == Some(&key) {
                 continue;
             }

@@ -38,7 +38,10 @@ pub async fn list(
         match key.as_str() {
             "status" => {
                 q.status = Some(value.parse().map_err(|e: String| {
-                    ApiError::param("status", format!("{e}; use queued, running, succeeded, failed or cancelled"))
+                    ApiError::param(
+                        "status",
+                        format!("{e}; use queued, running, succeeded, failed or cancelled"),
+                    )
                 })?)
             }
             "cursor" => {
@@ -51,9 +54,19 @@ pub async fn list(
                     .parse::<u32>()
                     .ok()
                     .filter(|n| (1..=MAX_LIMIT).contains(n))
-                    .ok_or_else(|| ApiError::param("limit", format!("must be a whole number from 1 to {MAX_LIMIT}")))?
+                    .ok_or_else(|| {
+                        ApiError::param(
+                            "limit",
+                            format!("must be a whole number from 1 to {MAX_LIMIT}"),
+                        )
+                    })?
             }
-            other => return Err(ApiError::param(other, "unknown query parameter; use status, cursor or limit")),
+            other => {
+                return Err(ApiError::param(
+                    other,
+                    "unknown query parameter; use status, cursor or limit",
+                ))
+            }
         }
     }
     // One extra row says whether another page exists.
@@ -62,7 +75,11 @@ pub async fn list(
     let mut jobs = state.store.list(&q).await?;
     let more = jobs.len() > wanted;
     jobs.truncate(wanted);
-    let next_cursor = if more { jobs.last().map(|j| j.id.to_string()) } else { None };
+    let next_cursor = if more {
+        jobs.last().map(|j| j.id.to_string())
+    } else {
+        None
+    };
     Ok(Json(Page {
         jobs: jobs.iter().map(JobView::from).collect(),
         next_cursor,

@@ -11,7 +11,12 @@ use crate::errors::ApiError;
 use crate::queue::JobStatus;
 use crate::storage::keys;
 
-async fn result(state: AppState, tenant: String, id: String, name: &str) -> Result<Response, ApiError> {
+async fn result(
+    state: AppState,
+    tenant: String,
+    id: String,
+    name: &str,
+) -> Result<Response, ApiError> {
     let job = super::load(&state, &tenant, &id).await?;
     if job.status != JobStatus::Succeeded {
         return Err(ApiError::new(
@@ -28,11 +33,9 @@ async fn result(state: AppState, tenant: String, id: String, name: &str) -> Resu
     if let Some(url) = state.blobs.presigned_get(&key).await? {
         return Ok(axum::response::Redirect::temporary(&url).into_response());
     }
-    let blob = state
-        .blobs
-        .get(&key)
-        .await?
-        .ok_or_else(|| ApiError::internal(format!("job {} succeeded but {name} is missing", job.id)))?;
+    let blob = state.blobs.get(&key).await?.ok_or_else(|| {
+        ApiError::internal(format!("job {} succeeded but {name} is missing", job.id))
+    })?;
     let disposition = format!("inline; filename=\"{}-{name}\"", job.id);
     Ok((
         [
@@ -45,14 +48,26 @@ async fn result(state: AppState, tenant: String, id: String, name: &str) -> Resu
         .into_response())
 }
 
-pub async fn geojson(State(s): State<AppState>, Tenant(t): Tenant, Path(id): Path<String>) -> Result<Response, ApiError> {
+pub async fn geojson(
+    State(s): State<AppState>,
+    Tenant(t): Tenant,
+    Path(id): Path<String>,
+) -> Result<Response, ApiError> {
     result(s, t, id, "plan.geojson").await
 }
 
-pub async fn svg(State(s): State<AppState>, Tenant(t): Tenant, Path(id): Path<String>) -> Result<Response, ApiError> {
+pub async fn svg(
+    State(s): State<AppState>,
+    Tenant(t): Tenant,
+    Path(id): Path<String>,
+) -> Result<Response, ApiError> {
     result(s, t, id, "plan.svg").await
 }
 
-pub async fn dxf(State(s): State<AppState>, Tenant(t): Tenant, Path(id): Path<String>) -> Result<Response, ApiError> {
+pub async fn dxf(
+    State(s): State<AppState>,
+    Tenant(t): Tenant,
+    Path(id): Path<String>,
+) -> Result<Response, ApiError> {
     result(s, t, id, "plan.dxf").await
 }

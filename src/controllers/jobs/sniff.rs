@@ -65,7 +65,10 @@ pub async fn sniff(mut body: ByteStream<'_>) -> Result<(&'static str, ByteStream
                 chunks.push(chunk);
             }
             Some(Err(e)) => {
-                return Err(ApiError::new("invalid_request", format!("the upload was interrupted: {e}")))
+                return Err(ApiError::new(
+                    "invalid_request",
+                    format!("the upload was interrupted: {e}"),
+                ))
             }
         }
     }
@@ -88,7 +91,10 @@ mod tests {
 
     #[test]
     fn formats_by_content() {
-        assert_eq!(detect(b"ply\nformat binary_little_endian 1.0\n"), Some("ply"));
+        assert_eq!(
+            detect(b"ply\nformat binary_little_endian 1.0\n"),
+            Some("ply")
+        );
         assert_eq!(detect(b"ASTM-E57\0\0\0"), Some("e57"));
         assert_eq!(detect(b"LASF\x00\x00"), Some("las"));
         assert_eq!(detect(b"# x y z\n1.0 2.0 3.5\n4 5 6\n"), Some("xyz"));
