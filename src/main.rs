@@ -22,6 +22,14 @@ enum Command {
     Info(cli::info::InfoArgs),
     /// Generate a synthetic building, scan it, and write the cloud, poses and ground truth.
     Simulate(cli::simulate::SimulateArgs),
+    /// Run the HTTP API and its workers (SQLite and a local data directory by default).
+    Serve(cli::serve::ServeArgs),
+    /// Create or upgrade the job database, then exit.
+    Migrate(cli::serve::ServeArgs),
+    /// Run pipeline workers only, sharing a PostgreSQL database and S3 storage with the API.
+    Worker(cli::serve::WorkerArgs),
+    /// Ask a running server or worker for /healthz; exit 0 when healthy (for container health checks).
+    Healthcheck(cli::healthcheck::HealthcheckArgs),
 }
 
 fn main() -> ExitCode {
@@ -30,6 +38,10 @@ fn main() -> ExitCode {
         Command::Plan(a) => cli::plan::run(a),
         Command::Info(a) => cli::info::run(a),
         Command::Simulate(a) => cli::simulate::run(a),
+        Command::Serve(a) => cli::serve::run(a),
+        Command::Migrate(a) => cli::serve::migrate(a),
+        Command::Worker(a) => cli::serve::worker(a),
+        Command::Healthcheck(a) => cli::healthcheck::run(a),
     };
     match result {
         Ok(code) => code,

@@ -1,6 +1,8 @@
 //! The command-line front ends of the pipeline. Each subcommand is a file with `Args` and `run`.
 
+pub mod healthcheck;
 pub mod info;
 pub mod plan;
 mod progress;
+pub mod serve;
 pub mod simulate;

@@ -1,0 +1,37 @@
+# syntax=docker/dockerfile:1
+#
+# The asbuilt image: one binary, run as `serve`, `serve --no-workers`, `worker` or `migrate`.
+#   docker build -t asbuilt .
+#   docker run -p 8080:8080 -v asbuilt-data:/var/lib/asbuilt asbuilt
+# See deploy/README.md for the settings that matter.
+
+# Build stage. Its cargo command is the one .ci/run runs on every change
+# (tests/deploy_manifests.rs checks that they stay equal), so it is known to work.
+FROM rust:1.95-slim-bookworm AS build
+WORKDIR /src
+COPY . .
+RUN cargo build --release --locked --bin asbuilt
+
+# Runtime stage: Debian slim plus the CA roots for TLS to S3; nothing is fetched at run time.
+FROM debian:bookworm-slim AS runtime
+# Debian's stable suite only receives security fixes, so the package is not pinned.
+# hadolint ignore=DL3008
+RUN apt-get update \
+    && apt-get install -y --no-install-recommends ca-certificates \
+    && rm -rf /var/lib/apt/lists/* \
+    && groupadd --system --gid 10001 asbuilt \
+    && useradd --system --uid 10001 --gid 10001 --home-dir /var/lib/asbuilt --create-home \
+        --shell /usr/sbin/nologin asbuilt
+COPY --from=build /src/target/release/asbuilt /usr/local/bin/asbuilt
+USER 10001:10001
+WORKDIR /var/lib/asbuilt
+ENV ASBUILT_LISTEN=0.0.0.0:8080 \
+    ASBUILT_DATA_DIR=/var/lib/asbuilt \
+    ASBUILT_LOG=info
+VOLUME ["/var/lib/asbuilt"]
+EXPOSE 8080
+# `asbuilt healthcheck` asks ASBUILT_LISTEN for /healthz over loopback; workers serve it too.
+HEALTHCHECK --interval=30s --timeout=5s --start-period=15s --retries=3 \
+    CMD ["asbuilt", "healthcheck"]
+ENTRYPOINT ["asbuilt"]
+CMD ["serve"]

@@ -1,0 +1,259 @@
+//! The running service: shared state, startup (stores, migrations, workers, sweeper, listener)
+//! and graceful shutdown.
+
+use std::net::SocketAddr;
+use std::ops::Deref;
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::Context;
+use tokio::net::TcpListener;
+use tokio::sync::{broadcast, Notify};
+use tokio::task::JoinHandle;
+use tokio_util::sync::CancellationToken;
+
+use crate::auth::Keys;
+use crate::config::Config;
+use crate::metrics::Metrics;
+use crate::queue::postgres::PgJobStore;
+use crate::queue::sqlite::SqliteJobStore;
+use crate::queue::{JobId, JobStore};
+use crate::storage::{local, s3, BlobStore};
+use crate::worker::fake::FakePipeline;
+use crate::worker::pipeline::{Pipeline, PlanPipeline};
+use crate::worker::{sweeper, Workers};
+
+/// What every handler and worker shares.
+pub struct App {
+    pub config: Config,
+    pub store: Arc<dyn JobStore>,
+    pub blobs: Arc<dyn BlobStore>,
+    pub keys: Keys,
+    pub metrics: Metrics,
+    /// Job ids whose state changed (SSE streams listen).
+    pub changes: broadcast::Sender<JobId>,
+    /// Wakes an idle worker when a job is queued.
+    pub queued: Notify,
+    /// Cancelled when shutdown begins: readiness fails and event streams end.
+    pub shutdown: CancellationToken,
+}
+
+/// A cheap handle on [`App`].
+#[derive(Clone)]
+pub struct AppState(pub Arc<App>);
+
+impl Deref for AppState {
+    type Target = App;
+
+    fn deref(&self) -> &App {
+        &self.0
+    }
+}
+
+impl AppState {
+    /// Tells event streams that a job changed.
+    pub fn changed(&self, id: JobId) {
+        let _ = self.changes.send(id);
+    }
+}
+
+/// Opens the job store the config names, and migrates it (`asbuilt migrate`).
+pub async fn open_store(config: &Config) -> anyhow::Result<Arc<dyn JobStore>> {
+    let store = connect_store(config).await?;
+    store.migrate().await?;
+    Ok(store)
+}
+
+/// Opens the job store the config names, without touching its schema.
+pub async fn connect_store(config: &Config) -> anyhow::Result<Arc<dyn JobStore>> {
+    let url = config.database_url();
+    if config.shared_database() {
+        let store = PgJobStore::connect(&url)
+            .await
+            .context("connecting to PostgreSQL")?;
+        return Ok(Arc::new(store));
+    }
+    if url.contains("://") && !url.starts_with("sqlite:") {
+        anyhow::bail!("database URL `{url}`: expected sqlite://PATH or postgres://...");
+    }
+    if let Some(parent) = std::path::Path::new(url.trim_start_matches("sqlite://")).parent() {
+        std::fs::create_dir_all(parent).ok();
+    }
+    Ok(Arc::new(SqliteJobStore::open_url(&url).await?))
+}
+
+/// Opens the store for a serving process: the embedded SQLite database migrates itself (zero
+/// setup); a shared database must already be at this binary's schema.
+async fn start_store(config: &Config) -> anyhow::Result<Arc<dyn JobStore>> {
+    let store = connect_store(config).await?;
+    if config.shared_database() {
+        store.check_schema().await?;
+    } else {
+        store.migrate().await?;
+    }
+    Ok(store)
+}
+
+/// Opens the blob store the config names: S3 for `s3://...`, else a local directory.
+pub async fn open_blobs(config: &Config) -> anyhow::Result<Arc<dyn BlobStore>> {
+    let blobs: Arc<dyn BlobStore> = match config.storage.as_deref() {
+        Some(url) if url.starts_with("s3://") => Arc::new(s3::open(url, &config.s3_options())?),
+        Some(dir) => Arc::new(local::open(std::path::Path::new(dir))?),
+        None => Arc::new(local::open(&config.data_dir.join("blobs"))?),
+    };
+    // Fail at start-up, naming the store, rather than on the first upload.
+    blobs
+        .ping()
+        .await
+        .context("the blob storage does not answer")?;
+    Ok(blobs)
+}
+
+/// A started service: its address and how to stop it.
+pub struct Running {
+    pub addr: SocketAddr,
+    pub state: AppState,
+    shutdown: CancellationToken,
+    task: JoinHandle<anyhow::Result<()>>,
+}
+
+impl Running {
+    /// Starts a graceful shutdown and waits for it.
+    pub async fn stop(self) -> anyhow::Result<()> {
+        self.shutdown.cancel();
+        self.task.await.context("server task")?
+    }
+
+    /// Waits until the server stops by itself (a signal).
+    pub async fn wait(self) -> anyhow::Result<()> {
+        self.task.await.context("server task")?
+    }
+}
+
+/// The pipeline the config asks for.
+pub fn pipeline_for(config: &Config) -> Arc<dyn Pipeline> {
+    match config.fake_pipeline_ms {
+        Some(ms) => Arc::new(FakePipeline {
+            stage_time: Duration::from_millis(ms),
+            completions: Some(config.data_dir.join("fake-completions.log")),
+            spin: config.fake_pipeline_spin,
+        }),
+        None => Arc::new(PlanPipeline),
+    }
+}
+
+/// Starts the API and `config.workers` workers; returns once listening.
+pub async fn start(mut config: Config, pipeline: Arc<dyn Pipeline>) -> anyhow::Result<Running> {
+    std::fs::create_dir_all(&config.data_dir)
+        .with_context(|| format!("creating {}", config.data_dir.display()))?;
+    // A worker-only process serves no API, only health and metrics, so it may listen anywhere.
+    if config.serve_api && config.dev_mode() && !config.listen.ip().is_loopback() {
+        let loopback = SocketAddr::new([127, 0, 0, 1].into(), config.listen.port());
+        tracing::warn!(
+            requested = %config.listen, listening = %loopback,
+            "no API keys configured: development mode binds to loopback only"
+        );
+        config.listen = loopback;
+    }
+    if config.serve_api && config.dev_mode() {
+        tracing::warn!("no API keys configured: development mode, every caller is tenant `dev`");
+    }
+    let store = start_store(&config).await?;
+    let blobs = open_blobs(&config).await?;
+    let shutdown = CancellationToken::new();
+    let state = AppState(Arc::new(App {
+        keys: Keys::new(&config.api_keys),
+        metrics: Metrics::default(),
+        changes: broadcast::channel(1024).0,
+        queued: Notify::new(),
+        shutdown: shutdown.child_token(),
+        store,
+        blobs,
+        config,
+    }));
+    let listener = TcpListener::bind(state.config.listen)
+        .await
+        .with_context(|| format!("binding {}", state.config.listen))?;
+    let addr = listener.local_addr()?;
+    tracing::info!("listening on http://{addr}");
+
+    let workers = Arc::new(Workers {
+        state: state.clone(),
+        pipeline,
+        owner: format!("{}-{}", std::process::id(), JobId::new()),
+        work_dir: state.config.data_dir.join("work"),
+        stop_claiming: CancellationToken::new(),
+        hand_back: CancellationToken::new(),
+    });
+    let worker_tasks = workers.spawn(state.config.workers);
+    let sweeper_stop = CancellationToken::new();
+    let sweeper = tokio::spawn(sweeper::run(state.clone(), sweeper_stop.clone()));
+
+    let app = if state.config.serve_api {
+        crate::router::build(state.clone())
+    } else {
+        crate::router::worker(state.clone())
+    };
+    let server_state = state.clone();
+    let signal = shutdown.clone();
+    let task = tokio::spawn(async move {
+        let stop = server_state.shutdown.clone();
+        let serve = axum::serve(listener, app).with_graceful_shutdown(async move {
+            tokio::select! {
+                _ = signal.cancelled() => {}
+                _ = termination() => {}
+            }
+            tracing::info!("shutting down: no new jobs or connections");
+            stop.cancel();
+        });
+        let result = serve.await;
+        workers.stop_claiming.cancel();
+        let deadline = tokio::time::Instant::now()
+            + Duration::from_secs(server_state.config.shutdown_timeout_secs);
+        let mut pending = vec![];
+        for mut task in worker_tasks {
+            if tokio::time::timeout_at(deadline, &mut task).await.is_err() {
+                pending.push(task);
+            }
+        }
+        if !pending.is_empty() {
+            tracing::warn!("shutdown timeout: handing running jobs back to the queue");
+            workers.hand_back.cancel();
+            for task in pending {
+                let _ = task.await;
+            }
+        }
+        sweeper_stop.cancel();
+        let _ = sweeper.await;
+        tracing::info!("stopped");
+        result.context("serving HTTP")
+    });
+    Ok(Running {
+        addr,
+        state,
+        shutdown,
+        task,
+    })
+}
+
+/// Resolves on SIGTERM or Ctrl-C.
+async fn termination() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = ctrl_c => {}
+        _ = term => {}
+    }
+}

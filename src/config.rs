@@ -1,0 +1,357 @@
+//! The service's settings. Each comes from, in rising precedence: the built-in default, the
+//! config file (`--config`, TOML), the environment (`ASBUILT_*`), then the command line.
+
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::{bail, Context};
+use serde::Deserialize;
+
+/// Every setting, resolved.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct Config {
+    /// Where to listen. Without API keys the host is forced to loopback.
+    pub listen: SocketAddr,
+    /// Root of the database file and blobs.
+    pub data_dir: PathBuf,
+    /// The job database; default `sqlite://<data_dir>/asbuilt.db`; `postgres://...` to share
+    /// jobs between processes on many hosts.
+    pub database_url: Option<String>,
+    /// Where blobs live: default `<data_dir>/blobs`; `s3://bucket/prefix` for S3-compatible
+    /// storage shared between processes.
+    pub storage: Option<String>,
+    /// S3 endpoint (MinIO, Ceph, ...); default `AWS_ENDPOINT`, else AWS itself.
+    pub s3_endpoint: Option<String>,
+    /// S3 region; default `AWS_REGION`.
+    pub s3_region: Option<String>,
+    /// S3 credentials; default `AWS_ACCESS_KEY_ID` and `AWS_SECRET_ACCESS_KEY`. Config file only,
+    /// so secrets never show on a command line.
+    pub s3_access_key_id: Option<String>,
+    pub s3_secret_access_key: Option<String>,
+    /// Allow a plain-HTTP S3 endpoint; default `AWS_ALLOW_HTTP`.
+    pub s3_allow_http: bool,
+    /// Serve results as redirects to pre-signed S3 URLs valid this long, seconds; 0 streams them.
+    pub presign_secs: u64,
+    /// Pipeline workers in this process (0: API only).
+    pub workers: usize,
+    /// Largest accepted upload, bytes.
+    pub max_upload_bytes: u64,
+    /// Largest accepted pose/trajectory sidecar or params part, bytes.
+    pub max_sidecar_bytes: u64,
+    /// Largest cloud a job may read, points.
+    pub max_points: u64,
+    /// Wall-clock limit of one job attempt, seconds.
+    pub job_timeout_secs: u64,
+    /// How long a finished job's uploads and results are kept, hours.
+    pub retention_hours: u64,
+    /// A worker's lease; a job whose worker is silent this long is retried, seconds.
+    pub lease_secs: u64,
+    /// Claims a job may use before it fails with `worker_lost`.
+    pub max_attempts: u32,
+    /// How long shutdown waits for running jobs before handing them back to the queue, seconds.
+    pub shutdown_timeout_secs: u64,
+    /// API keys as `tenant:key`. None: development mode (loopback only, one tenant `dev`).
+    pub api_keys: Vec<String>,
+    /// Testing aid: replace the pipeline with a synthetic one taking this many ms per stage.
+    #[serde(skip)]
+    pub fake_pipeline_ms: Option<u64>,
+    /// Testing aid: the synthetic pipeline burns CPU instead of sleeping.
+    #[serde(skip)]
+    pub fake_pipeline_spin: bool,
+    /// Serve the v1 API (`serve`); false for `asbuilt worker`, which serves only its health
+    /// and metrics endpoints.
+    #[serde(skip)]
+    pub serve_api: bool,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            listen: "127.0.0.1:8080".parse().expect("literal address"),
+            data_dir: PathBuf::from("asbuilt-data"),
+            database_url: None,
+            storage: None,
+            s3_endpoint: None,
+            s3_region: None,
+            s3_access_key_id: None,
+            s3_secret_access_key: None,
+            s3_allow_http: false,
+            presign_secs: 0,
+            workers: 2,
+            max_upload_bytes: 8 << 30,
+            max_sidecar_bytes: 16 << 20,
+            max_points: 200_000_000,
+            job_timeout_secs: 3600,
+            retention_hours: 24 * 7,
+            lease_secs: 30,
+            max_attempts: 3,
+            shutdown_timeout_secs: 30,
+            api_keys: Vec::new(),
+            fake_pipeline_ms: None,
+            fake_pipeline_spin: false,
+            serve_api: true,
+        }
+    }
+}
+
+/// `asbuilt serve` and `asbuilt migrate` flags. Each has an `ASBUILT_*` environment twin.
+#[derive(clap::Args, Debug, Default)]
+pub struct ConfigArgs {
+    /// A TOML file with any of the settings below (snake_case keys).
+    #[arg(long, env = "ASBUILT_CONFIG", value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Listen address [default: 127.0.0.1:8080].
+    #[arg(long, env = "ASBUILT_LISTEN", value_name = "ADDR")]
+    pub listen: Option<SocketAddr>,
+    /// Data directory for the database and blobs [default: ./asbuilt-data].
+    #[arg(long, env = "ASBUILT_DATA_DIR", value_name = "DIR")]
+    pub data_dir: Option<PathBuf>,
+    /// Job database URL: sqlite://PATH or postgres://... [default: sqlite://DATA_DIR/asbuilt.db].
+    #[arg(
+        long,
+        visible_alias = "database",
+        env = "ASBUILT_DATABASE_URL",
+        value_name = "URL"
+    )]
+    pub database_url: Option<String>,
+    /// Blob storage: a local directory, or s3://BUCKET/PREFIX [default: DATA_DIR/blobs].
+    #[arg(long, env = "ASBUILT_STORAGE", value_name = "URL")]
+    pub storage: Option<String>,
+    /// S3-compatible endpoint, e.g. http://minio:9000 [default: AWS_ENDPOINT, else AWS].
+    #[arg(long, env = "ASBUILT_S3_ENDPOINT", value_name = "URL")]
+    pub s3_endpoint: Option<String>,
+    /// S3 region [default: AWS_REGION].
+    #[arg(long, env = "ASBUILT_S3_REGION", value_name = "REGION")]
+    pub s3_region: Option<String>,
+    /// Serve results through pre-signed S3 URLs valid SECS seconds (0: stream them) [default: 0].
+    #[arg(long, env = "ASBUILT_PRESIGN_SECONDS", value_name = "SECS")]
+    pub presign: Option<u64>,
+    /// Pipeline workers [default: 2].
+    #[arg(long, env = "ASBUILT_WORKERS", value_name = "N")]
+    pub workers: Option<usize>,
+    /// Upload size limit, bytes or with K/M/G/T [default: 8G].
+    #[arg(long, env = "ASBUILT_MAX_UPLOAD", value_name = "SIZE", value_parser = parse_size)]
+    pub max_upload: Option<u64>,
+    /// Sidecar and params part size limit [default: 16M].
+    #[arg(long, env = "ASBUILT_MAX_SIDECAR", value_name = "SIZE", value_parser = parse_size)]
+    pub max_sidecar: Option<u64>,
+    /// Point-count limit per job [default: 200000000].
+    #[arg(long, env = "ASBUILT_MAX_POINTS", value_name = "N")]
+    pub max_points: Option<u64>,
+    /// Time limit per job attempt, seconds [default: 3600].
+    #[arg(long, env = "ASBUILT_JOB_TIMEOUT", value_name = "SECS")]
+    pub job_timeout: Option<u64>,
+    /// Retention of finished jobs' data, hours [default: 168].
+    #[arg(long, env = "ASBUILT_RETENTION_HOURS", value_name = "HOURS")]
+    pub retention_hours: Option<u64>,
+    /// Worker lease, seconds [default: 30].
+    #[arg(long, env = "ASBUILT_LEASE", value_name = "SECS")]
+    pub lease: Option<u64>,
+    /// Attempts per job before it fails with worker_lost [default: 3].
+    #[arg(long, env = "ASBUILT_MAX_ATTEMPTS", value_name = "N")]
+    pub max_attempts: Option<u32>,
+    /// Graceful shutdown timeout, seconds [default: 30].
+    #[arg(long, env = "ASBUILT_SHUTDOWN_TIMEOUT", value_name = "SECS")]
+    pub shutdown_timeout: Option<u64>,
+    /// API keys, `tenant:key`, comma-separated or repeated. None: development mode.
+    #[arg(
+        long = "api-key",
+        env = "ASBUILT_API_KEYS",
+        value_name = "TENANT:KEY",
+        value_delimiter = ','
+    )]
+    pub api_keys: Vec<String>,
+    /// Testing aid: a synthetic pipeline taking MS per stage instead of the real one.
+    #[arg(long, env = "ASBUILT_FAKE_PIPELINE_MS", value_name = "MS", hide = true)]
+    pub fake_pipeline_ms: Option<u64>,
+    /// Testing aid: the synthetic pipeline burns CPU instead of sleeping.
+    #[arg(long, hide = true)]
+    pub fake_pipeline_spin: bool,
+}
+
+impl ConfigArgs {
+    /// Defaults, then the file, then environment and flags (clap has merged those two).
+    pub fn resolve(&self) -> anyhow::Result<Config> {
+        let mut c = match &self.config {
+            Some(path) => load_file(path)?,
+            None => Config::default(),
+        };
+        macro_rules! take {
+            ($($flag:ident => $field:ident),*) => {
+                $(if let Some(v) = self.$flag.clone() { c.$field = v; })*
+            };
+        }
+        take!(listen => listen, data_dir => data_dir, workers => workers,
+            max_upload => max_upload_bytes, max_sidecar => max_sidecar_bytes,
+            max_points => max_points, job_timeout => job_timeout_secs,
+            retention_hours => retention_hours, lease => lease_secs,
+            max_attempts => max_attempts, shutdown_timeout => shutdown_timeout_secs,
+            presign => presign_secs);
+        for (flag, field) in [
+            (&self.storage, &mut c.storage),
+            (&self.s3_endpoint, &mut c.s3_endpoint),
+            (&self.s3_region, &mut c.s3_region),
+        ] {
+            if flag.is_some() {
+                field.clone_from(flag);
+            }
+        }
+        if self.database_url.is_some() {
+            c.database_url = self.database_url.clone();
+        }
+        if !self.api_keys.is_empty() {
+            c.api_keys = self.api_keys.clone();
+        }
+        c.fake_pipeline_ms = self.fake_pipeline_ms;
+        c.fake_pipeline_spin = self.fake_pipeline_spin;
+        c.check()?;
+        Ok(c)
+    }
+}
+
+fn load_file(path: &Path) -> anyhow::Result<Config> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    toml::from_str(&text).with_context(|| format!("{}", path.display()))
+}
+
+impl Config {
+    /// Rejects settings that cannot work, naming the setting.
+    pub fn check(&self) -> anyhow::Result<()> {
+        if let Some(url) = &self.database_url {
+            let known = ["sqlite:", "postgres://", "postgresql://"];
+            if url.contains("://") && !known.iter().any(|k| url.starts_with(k)) {
+                bail!("database_url `{url}`: expected sqlite://PATH or postgres://...");
+            }
+        }
+        if let Some(url) = self.storage.as_deref().filter(|u| u.contains("://")) {
+            crate::storage::s3::S3Url::parse(url)?;
+        }
+        if self.lease_secs == 0 {
+            bail!("lease_secs must be at least 1");
+        }
+        if self.max_attempts == 0 {
+            bail!("max_attempts must be at least 1");
+        }
+        if self.job_timeout_secs == 0 {
+            bail!("job_timeout_secs must be at least 1");
+        }
+        for k in &self.api_keys {
+            match k.split_once(':') {
+                Some((t, key)) if !t.is_empty() && key.len() >= 8 => {}
+                _ => bail!(
+                    "api key `{}`: expected TENANT:KEY with a key of at least 8 characters",
+                    k.split(':').next().unwrap_or("")
+                ),
+            }
+        }
+        Ok(())
+    }
+
+    /// The database URL, defaulting to a file in the data directory.
+    pub fn database_url(&self) -> String {
+        self.database_url
+            .clone()
+            .unwrap_or_else(|| format!("sqlite://{}", self.data_dir.join("asbuilt.db").display()))
+    }
+
+    /// True when jobs live in a database other processes share (PostgreSQL): its schema is
+    /// migrated by `asbuilt migrate`, not at start-up.
+    pub fn shared_database(&self) -> bool {
+        let url = self.database_url();
+        url.starts_with("postgres://") || url.starts_with("postgresql://")
+    }
+
+    /// How to reach S3, from the config with the `AWS_*` environment as the fallback.
+    pub fn s3_options(&self) -> crate::storage::s3::S3Options {
+        crate::storage::s3::S3Options {
+            endpoint: self.s3_endpoint.clone(),
+            region: self.s3_region.clone(),
+            access_key_id: self.s3_access_key_id.clone(),
+            secret_access_key: self.s3_secret_access_key.clone(),
+            allow_http: self.s3_allow_http,
+            presign: (self.presign_secs > 0).then(|| Duration::from_secs(self.presign_secs)),
+        }
+    }
+
+    /// True when no API keys are configured.
+    pub fn dev_mode(&self) -> bool {
+        self.api_keys.is_empty()
+    }
+}
+
+/// Parses `123`, `64K`, `512M`, `2G`, `1T` (binary multiples).
+pub fn parse_size(s: &str) -> Result<u64, String> {
+    let s = s.trim();
+    let (digits, shift) = match s.char_indices().last() {
+        Some((i, c)) if c.is_ascii_alphabetic() => {
+            let shift = match c.to_ascii_uppercase() {
+                'K' => 10,
+                'M' => 20,
+                'G' => 30,
+                'T' => 40,
+                _ => {
+                    return Err(format!(
+                        "`{s}`: unknown size suffix `{c}` (use K, M, G or T)"
+                    ))
+                }
+            };
+            (&s[..i], shift)
+        }
+        _ => (s, 0),
+    };
+    let n: u64 = digits
+        .parse()
+        .map_err(|_| format!("`{s}` is not a size such as 512M or 2G"))?;
+    n.checked_mul(1u64 << shift)
+        .ok_or_else(|| format!("`{s}` is too large"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes() {
+        assert_eq!(parse_size("123"), Ok(123));
+        assert_eq!(parse_size("64K"), Ok(65536));
+        assert_eq!(parse_size("2g"), Ok(2 << 30));
+        assert!(parse_size("2X").is_err());
+        assert!(parse_size("lots").is_err());
+        assert!(parse_size("99999999999T").is_err());
+    }
+
+    #[test]
+    fn flags_override_the_file_which_overrides_defaults() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("asbuilt.toml");
+        std::fs::write(
+            &file,
+            "workers = 5\nmax_points = 10\napi_keys = [\"acme:0123456789\"]\n",
+        )
+        .unwrap();
+        let args = ConfigArgs {
+            config: Some(file.clone()),
+            workers: Some(7),
+            ..Default::default()
+        };
+        let c = args.resolve().unwrap();
+        assert_eq!((c.workers, c.max_points), (7, 10));
+        assert_eq!(c.lease_secs, Config::default().lease_secs);
+        assert!(!c.dev_mode());
+        std::fs::write(&file, "wrokers = 5\n").unwrap();
+        let err = format!("{:#}", args.resolve().unwrap_err());
+        assert!(err.contains("wrokers"), "{err}");
+    }
+
+    #[test]
+    fn short_keys_are_refused() {
+        let c = Config {
+            api_keys: vec!["acme:short".into()],
+            ..Default::default()
+        };
+        assert!(c.check().unwrap_err().to_string().contains("acme"));
+    }
+}

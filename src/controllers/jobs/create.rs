@@ -1,0 +1,329 @@
+//! `POST /v1/jobs`: stream the cloud to storage and queue a job.
+//!
+//! Two bodies are accepted:
+//! - raw: the cloud itself; parameters as `section.name=value` query pairs, plus `filename`;
+//! - `multipart/form-data`: a `cloud` part, an optional `poses` or `trajectory` part, and an
+//!   optional `params` part (JSON or TOML); query parameters apply on top.
+//!
+//! The cloud never sits whole in memory. On any refusal, whatever was stored is deleted.
+
+use asbuilt_plan::params::ParamsError;
+use asbuilt_plan::Params;
+use axum::body::Body;
+use axum::extract::multipart::{Field, MultipartError};
+use axum::extract::rejection::QueryRejection;
+use axum::extract::{FromRequest, Multipart, Query, Request, State};
+use axum::http::header::{CONTENT_LENGTH, CONTENT_TYPE, LOCATION};
+use axum::http::StatusCode;
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use bytes::Bytes;
+use futures_util::{StreamExt, TryStreamExt};
+
+use super::sniff::sniff;
+use crate::app::AppState;
+use crate::auth::Tenant;
+use crate::errors::ApiError;
+use crate::queue::{JobId, NewJob, UploadInfo};
+use crate::storage::{keys, BlobError, ByteStream, Stored};
+use crate::views::JobView;
+use crate::worker::pipeline::SidecarKind;
+
+/// What a request body delivered.
+#[derive(Default)]
+struct Received {
+    cloud: Option<(Stored, &'static str)>,
+    filename: Option<String>,
+    sidecar: Option<SidecarKind>,
+    params: Option<Params>,
+}
+
+pub async fn create(
+    State(state): State<AppState>,
+    Tenant(tenant): Tenant,
+    query: Result<Query<Vec<(String, String)>>, QueryRejection>,
+    request: Request,
+) -> Result<Response, ApiError> {
+    let result = accept(&state, tenant, query, request).await;
+    if let Err(e) = &result {
+        state.metrics.rejected(e.code);
+    }
+    result
+}
+
+async fn accept(
+    state: &AppState,
+    tenant: String,
+    query: Result<Query<Vec<(String, String)>>, QueryRejection>,
+    request: Request,
+) -> Result<Response, ApiError> {
+    if state.shutdown.is_cancelled() {
+        return Err(ApiError::new("unavailable", "the server is shutting down"));
+    }
+    let Query(pairs) = query.map_err(|e| ApiError::new("invalid_request", e.body_text()))?;
+    // Query parameters are checked before a byte is stored.
+    let mut filename = None;
+    let mut overrides = vec![];
+    for (key, value) in pairs {
+        if key == "filename" {
+            filename = Some(clean_filename(&value));
+        } else {
+            Params::default()
+                .set(&format!("{key}={value}"))
+                .map_err(|e| params_error(&e, Some(key.as_str())))?;
+            overrides.push(format!("{key}={value}"));
+        }
+    }
+    let multipart = request
+        .headers()
+        .get(CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|t| t.to_ascii_lowercase().starts_with("multipart/form-data"));
+    let declared = request
+        .headers()
+        .get(CONTENT_LENGTH)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.parse::<u64>().ok());
+    let limit = state.config.max_upload_bytes;
+    let slack = if multipart {
+        2 * state.config.max_sidecar_bytes + (1 << 20)
+    } else {
+        0
+    };
+    if declared.is_some_and(|n| n > limit.saturating_add(slack)) {
+        return Err(too_large(limit));
+    }
+
+    let id = JobId::new();
+    let received = if multipart {
+        receive_multipart(state, id, request).await
+    } else {
+        receive_raw(state, id, request.into_body())
+            .await
+            .map(|cloud| Received {
+                cloud: Some(cloud),
+                ..Default::default()
+            })
+    };
+    let received = match received.and_then(|r| finish_params(r, &overrides)) {
+        Ok(r) => r,
+        Err(e) => {
+            if let Err(d) = state.blobs.delete_prefix(&keys::job_prefix(id)).await {
+                tracing::error!(job = %id, error = %d, "removing a refused upload");
+            }
+            return Err(e);
+        }
+    };
+    let (received, params) = received;
+    let Some((stored, format)) = received.cloud else {
+        let _ = state.blobs.delete_prefix(&keys::job_prefix(id)).await;
+        return Err(ApiError::new(
+            "missing_cloud",
+            "the request has no `cloud` part",
+        ));
+    };
+    let job = state
+        .store
+        .create(NewJob {
+            id,
+            tenant,
+            params: params.to_json(),
+            upload: UploadInfo {
+                filename: received.filename.or(filename),
+                bytes: stored.bytes,
+                sha256: stored.sha256,
+                format: format.to_string(),
+                sidecar: received.sidecar.map(|s| s.name().to_string()),
+            },
+            max_attempts: state.config.max_attempts,
+        })
+        .await;
+    let job = match job {
+        Ok(job) => job,
+        Err(e) => {
+            let _ = state.blobs.delete_prefix(&keys::job_prefix(id)).await;
+            return Err(e.into());
+        }
+    };
+    state.metrics.upload(job.upload.bytes);
+    state.queued.notify_one();
+    state.changed(id);
+    tracing::info!(job = %id, bytes = job.upload.bytes, format, "job queued");
+    let location = format!("/v1/jobs/{id}");
+    Ok((
+        StatusCode::ACCEPTED,
+        [(LOCATION, location)],
+        Json(JobView::from(&job)),
+    )
+        .into_response())
+}
+
+/// The part's parameters (if any), then the query's overrides.
+fn finish_params(r: Received, overrides: &[String]) -> Result<(Received, Params), ApiError> {
+    let mut params = r.params.clone().unwrap_or_default();
+    for o in overrides {
+        let key = o.split('=').next().unwrap_or_default();
+        params.set(o).map_err(|e| params_error(&e, Some(key)))?;
+    }
+    Ok((r, params))
+}
+
+fn too_large(limit: u64) -> ApiError {
+    ApiError::new(
+        "payload_too_large",
+        format!("the upload is larger than this server's limit of {limit} bytes"),
+    )
+}
+
+fn blob_error(e: BlobError) -> ApiError {
+    match e {
+        BlobError::TooLarge { limit } => too_large(limit),
+        BlobError::Source(e) => ApiError::new(
+            "invalid_request",
+            format!("the upload was interrupted: {e}"),
+        ),
+        e => ApiError::internal(e),
+    }
+}
+
+/// `invalid_parameter`, naming the parameter (from the error when it knows it better).
+fn params_error(e: &ParamsError, key: Option<&str>) -> ApiError {
+    let name = match e {
+        ParamsError::Unknown(n) | ParamsError::Invalid { name: n, .. } => Some(n.clone()),
+        ParamsError::Syntax(s) => Some(s.clone()),
+        // serde names the field between backticks.
+        ParamsError::File(m) => m.split('`').nth(1).map(str::to_string),
+    };
+    ApiError::param(
+        name.or(key.map(str::to_string))
+            .unwrap_or_else(|| "params".into()),
+        e.to_string(),
+    )
+}
+
+/// Keeps a display name: the last path segment, printable, at most 200 characters.
+fn clean_filename(raw: &str) -> String {
+    let last = raw.rsplit(['/', '\\']).next().unwrap_or_default();
+    last.chars().filter(|c| !c.is_control()).take(200).collect()
+}
+
+async fn receive_raw(
+    state: &AppState,
+    id: JobId,
+    body: Body,
+) -> Result<(Stored, &'static str), ApiError> {
+    let stream: ByteStream<'static> = body
+        .into_data_stream()
+        .map_err(std::io::Error::other)
+        .boxed();
+    store_cloud(state, id, stream).await
+}
+
+async fn store_cloud(
+    state: &AppState,
+    id: JobId,
+    stream: ByteStream<'_>,
+) -> Result<(Stored, &'static str), ApiError> {
+    let (format, stream) = sniff(stream).await?;
+    let stored = state
+        .blobs
+        .put_stream(&keys::cloud(id), stream, state.config.max_upload_bytes)
+        .await
+        .map_err(blob_error)?;
+    Ok((stored, format))
+}
+
+fn multipart_error(e: MultipartError) -> ApiError {
+    if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
+        return ApiError::new("payload_too_large", e.body_text());
+    }
+    ApiError::new("invalid_multipart", e.body_text())
+}
+
+/// Reads a small part whole, refusing it past `limit` bytes.
+async fn read_small(mut field: Field<'_>, name: &str, limit: u64) -> Result<Bytes, ApiError> {
+    let mut buf = Vec::new();
+    while let Some(chunk) = field.chunk().await.map_err(multipart_error)? {
+        if (buf.len() + chunk.len()) as u64 > limit {
+            return Err(ApiError::new(
+                "payload_too_large",
+                format!("the `{name}` part is larger than the limit of {limit} bytes"),
+            ));
+        }
+        buf.extend_from_slice(&chunk);
+    }
+    Ok(buf.into())
+}
+
+async fn receive_multipart(
+    state: &AppState,
+    id: JobId,
+    request: Request,
+) -> Result<Received, ApiError> {
+    let mut form = Multipart::from_request(request, state)
+        .await
+        .map_err(|e| ApiError::new("invalid_multipart", e.body_text()))?;
+    let mut got = Received::default();
+    let small = state.config.max_sidecar_bytes;
+    while let Some(field) = form.next_field().await.map_err(multipart_error)? {
+        let name = field.name().unwrap_or_default().to_string();
+        match name.as_str() {
+            "cloud" => {
+                if got.cloud.is_some() {
+                    return Err(ApiError::new(
+                        "invalid_multipart",
+                        "more than one `cloud` part",
+                    ));
+                }
+                got.filename = field.file_name().map(clean_filename);
+                let stream = field.map_err(std::io::Error::other).boxed();
+                got.cloud = Some(store_cloud(state, id, stream).await?);
+            }
+            "poses" | "trajectory" => {
+                if got.sidecar.is_some() {
+                    return Err(ApiError::new(
+                        "invalid_multipart",
+                        "send one `poses` or `trajectory` part, not several",
+                    ));
+                }
+                let bytes = read_small(field, &name, small).await?;
+                let value: serde_json::Value = serde_json::from_slice(&bytes).map_err(|e| {
+                    ApiError::new(
+                        "invalid_sidecar",
+                        format!("the `{name}` part is not JSON: {e}"),
+                    )
+                })?;
+                if !value.is_object() {
+                    return Err(ApiError::new(
+                        "invalid_sidecar",
+                        format!("the `{name}` part must be a JSON object"),
+                    ));
+                }
+                state
+                    .blobs
+                    .put(&keys::sidecar(id), bytes)
+                    .await
+                    .map_err(blob_error)?;
+                got.sidecar = SidecarKind::from_name(&name);
+            }
+            "params" => {
+                let bytes = read_small(field, &name, small).await?;
+                let text = std::str::from_utf8(&bytes).map_err(|_| {
+                    ApiError::param("params", "the `params` part is not UTF-8 text")
+                })?;
+                let params = Params::from_file_text(text).map_err(|e| params_error(&e, None))?;
+                got.params = Some(params);
+            }
+            other => {
+                return Err(ApiError::new(
+                    "invalid_multipart",
+                    format!(
+                        "unknown part `{}`; send cloud, poses or trajectory, and params",
+                        clean_filename(other)
+                    ),
+                ))
+            }
+        }
+    }
+    Ok(got)
+}

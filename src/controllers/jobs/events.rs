@@ -1,0 +1,108 @@
+//! `GET /v1/jobs/{id}/events`: server-sent events. Each `job` event carries the whole job
+//! (as `GET /v1/jobs/{id}`) whenever its status, stage or progress changes; the stream ends
+//! after a terminal status, or with a `deleted` event.
+
+use std::convert::Infallible;
+use std::time::Duration;
+
+use axum::extract::{Path, State};
+use axum::response::sse::{Event, KeepAlive, Sse};
+use futures_util::Stream;
+use tokio::sync::broadcast;
+
+use crate::app::AppState;
+use crate::auth::Tenant;
+use crate::errors::ApiError;
+use crate::queue::{JobId, JobStatus};
+use crate::views::JobView;
+
+/// Without a change notice (another process's worker), the job is re-read this often.
+const POLL: Duration = Duration::from_secs(1);
+
+struct Watch {
+    state: AppState,
+    tenant: String,
+    id: JobId,
+    changes: broadcast::Receiver<JobId>,
+    last: Option<(JobStatus, Option<String>, u64)>,
+    first: bool,
+    done: bool,
+}
+
+impl Watch {
+    /// Waits for a change notice about this job, the poll interval, or shutdown (false).
+    async fn wait(&mut self) -> bool {
+        let deadline = tokio::time::sleep(POLL);
+        tokio::pin!(deadline);
+        loop {
+            tokio::select! {
+                _ = &mut deadline => return true,
+                _ = self.state.shutdown.cancelled() => return false,
+                got = self.changes.recv() => match got {
+                    Ok(id) if id == self.id => return true,
+                    Ok(_) => {}
+                    Err(broadcast::error::RecvError::Lagged(_)) => return true,
+                    Err(broadcast::error::RecvError::Closed) => return false,
+                },
+            }
+        }
+    }
+
+    async fn next(mut self) -> Option<(Result<Event, Infallible>, Watch)> {
+        if self.done {
+            return None;
+        }
+        loop {
+            if !self.first && !self.wait().await {
+                return None;
+            }
+            self.first = false;
+            let job = match self.state.store.get(Some(&self.tenant), self.id).await {
+                Ok(Some(job)) => job,
+                Ok(None) => {
+                    self.done = true;
+                    let event = Event::default().event("deleted").data(self.id.to_string());
+                    return Some((Ok(event), self));
+                }
+                Err(e) => {
+                    tracing::warn!(job = %self.id, error = %e, "event stream read failed");
+                    continue;
+                }
+            };
+            let key = (
+                job.status,
+                job.stage.clone(),
+                (job.progress * 1000.0) as u64,
+            );
+            if self.last.as_ref() == Some(&key) {
+                continue;
+            }
+            self.last = Some(key);
+            self.done = job.status.is_terminal();
+            let event = Event::default()
+                .event("job")
+                .json_data(JobView::from(&job))
+                .unwrap_or_else(|_| Event::default().event("job"));
+            return Some((Ok(event), self));
+        }
+    }
+}
+
+pub async fn events(
+    State(state): State<AppState>,
+    Tenant(tenant): Tenant,
+    Path(id): Path<String>,
+) -> Result<Sse<impl Stream<Item = Result<Event, Infallible>>>, ApiError> {
+    let job = super::load(&state, &tenant, &id).await?;
+    let watch = Watch {
+        changes: state.changes.subscribe(),
+        state,
+        tenant,
+        id: job.id,
+        last: None,
+        first: true,
+        done: false,
+    };
+    let stream = futures_util::stream::unfold(watch, Watch::next);
+    Ok(Sse::new(stream).keep_alive(KeepAlive::new().interval(Duration::from_secs(15))))
+}

@@ -1,0 +1,539 @@
+//! Job state in PostgreSQL, shared by any number of API and worker processes on any hosts.
+//!
+//! - Workers claim with `FOR UPDATE SKIP LOCKED`, so two claims never wait on or take the same
+//!   row; every later step checks `lease_owner`, so a worker that lost its lease changes nothing.
+//! - A trigger notifies the channel `asbuilt_jobs_<schema>` whenever a job becomes queued;
+//!   [`JobStore::wait_for_work`] wakes on it, and falls back to polling if the listener is down.
+//! - Migrations are versioned and embedded; `asbuilt migrate` applies them, and every other
+//!   role checks at start-up ([`JobStore::check_schema`]) that the database matches the binary.
+
+use std::borrow::Cow;
+use std::str::FromStr;
+use std::sync::Arc;
+use std::time::Duration;
+
+use async_trait::async_trait;
+use futures_util::future::BoxFuture;
+use sqlx::error::BoxDynError;
+use sqlx::migrate::{Migrate, Migration, MigrationSource, MigrationType, Migrator};
+use sqlx::postgres::{PgConnectOptions, PgListener, PgPool, PgPoolOptions, PgRow};
+use sqlx::Row;
+use tokio::sync::Notify;
+
+use super::{
+    now_ms, Beat, Expired, Heartbeat, Job, JobError, JobId, JobOutcome, JobStatus, JobStore,
+    ListQuery, NewJob, StoreError, WORKER_LOST,
+};
+
+/// The PostgreSQL migrations, in order: (version, description, SQL).
+const MIGRATIONS: &[(i64, &str, &str)] = &[(
+    1,
+    "jobs",
+    include_str!("../../migrations/postgres/0001_jobs.sql"),
+)];
+
+fn migrations() -> Vec<Migration> {
+    MIGRATIONS
+        .iter()
+        .map(|&(version, description, sql)| {
+            Migration::new(
+                version,
+                Cow::Borrowed(description),
+                MigrationType::Simple,
+                Cow::Borrowed(sql),
+                false,
+            )
+        })
+        .collect()
+}
+
+/// Hands sqlx the migrations embedded above.
+#[derive(Debug)]
+struct Embedded;
+
+impl<'s> MigrationSource<'s> for Embedded {
+    fn resolve(self) -> BoxFuture<'s, Result<Vec<Migration>, BoxDynError>> {
+        Box::pin(async { Ok(migrations()) })
+    }
+}
+
+const COLUMNS: &str = "id::text AS id, tenant, status, stage, progress, params::text AS params, \
+     upload::text AS upload, input::text AS input, timings::text AS timings, error_code, \
+     error_message, attempts, max_attempts, created_at, started_at, finished_at, updated_at";
+
+/// Job state in a PostgreSQL database (one schema of it).
+#[derive(Clone)]
+pub struct PgJobStore {
+    pool: PgPool,
+    /// Signalled by the listener task on each notification; created on first wait.
+    wake: Arc<tokio::sync::OnceCell<Arc<Notify>>>,
+}
+
+impl PgJobStore {
+    /// Connects to `postgres://...`. A `?options=-c search_path=NAME` parameter selects a schema.
+    pub async fn connect(url: &str) -> Result<PgJobStore, StoreError> {
+        let options = PgConnectOptions::from_str(url)
+            .map_err(|e| StoreError(format!("bad database URL: {e}")))?;
+        PgJobStore::connect_with(options).await
+    }
+
+    /// Connects with explicit options (tests use them to pick a schema).
+    pub async fn connect_with(options: PgConnectOptions) -> Result<PgJobStore, StoreError> {
+        let pool = PgPoolOptions::new()
+            .max_connections(8)
+            .acquire_timeout(Duration::from_secs(10))
+            .connect_with(options)
+            .await?;
+        Ok(PgJobStore {
+            pool,
+            wake: Arc::new(tokio::sync::OnceCell::new()),
+        })
+    }
+
+    /// The notification channel of this store's schema.
+    async fn channel(&self) -> Result<String, StoreError> {
+        let schema: String = sqlx::query_scalar("SELECT current_schema()")
+            .fetch_one(&self.pool)
+            .await?;
+        Ok(format!("asbuilt_jobs_{schema}"))
+    }
+
+    /// Starts (once) a task that listens for new work and wakes waiting workers.
+    async fn wake_signal(&self) -> Result<Arc<Notify>, StoreError> {
+        let store = self.clone();
+        self.wake
+            .get_or_try_init(|| async move {
+                let channel = store.channel().await?;
+                let mut listener = PgListener::connect_with(&store.pool).await?;
+                listener.listen(&channel).await?;
+                let notify = Arc::new(Notify::new());
+                let signal = notify.clone();
+                tokio::spawn(async move {
+                    loop {
+                        // recv reconnects after a dropped connection; notifications sent while
+                        // it was down are lost, which the polling fallback covers.
+                        match listener.recv().await {
+                            Ok(_) => signal.notify_waiters(),
+                            Err(e) => {
+                                tracing::warn!("job listener: {e}; retrying");
+                                tokio::time::sleep(Duration::from_secs(1)).await;
+                            }
+                        }
+                    }
+                });
+                Ok(notify)
+            })
+            .await
+            .cloned()
+    }
+
+    fn row_to_job(row: &PgRow) -> Result<Job, StoreError> {
+        let json = |name: &str| -> Result<Option<serde_json::Value>, StoreError> {
+            let text: Option<String> = row.try_get(name)?;
+            text.map(|t| {
+                serde_json::from_str(&t).map_err(|e| StoreError(format!("column {name}: {e}")))
+            })
+            .transpose()
+        };
+        let id: String = row.try_get("id")?;
+        let status: String = row.try_get("status")?;
+        let upload: String = row.try_get("upload")?;
+        let error_code: Option<String> = row.try_get("error_code")?;
+        let error_message: Option<String> = row.try_get("error_message")?;
+        Ok(Job {
+            id: JobId::from_str(&id).map_err(|e| StoreError(format!("id {id}: {e}")))?,
+            tenant: row.try_get("tenant")?,
+            status: JobStatus::from_str(&status).map_err(StoreError)?,
+            stage: row.try_get("stage")?,
+            progress: row.try_get("progress")?,
+            params: json("params")?.unwrap_or_default(),
+            upload: serde_json::from_str(&upload)
+                .map_err(|e| StoreError(format!("column upload: {e}")))?,
+            input: json("input")?,
+            timings: json("timings")?,
+            error: error_code.map(|code| JobError {
+                code,
+                message: error_message.unwrap_or_default(),
+            }),
+            attempts: row.try_get::<i32, _>("attempts")? as u32,
+            max_attempts: row.try_get::<i32, _>("max_attempts")? as u32,
+            created_at: row.try_get("created_at")?,
+            started_at: row.try_get("started_at")?,
+            finished_at: row.try_get("finished_at")?,
+            updated_at: row.try_get("updated_at")?,
+        })
+    }
+
+    fn ids(rows: &[PgRow]) -> Result<Vec<JobId>, StoreError> {
+        rows.iter()
+            .map(|r| {
+                let s: String = r.try_get("id")?;
+                JobId::from_str(&s).map_err(|e| StoreError(e.to_string()))
+            })
+            .collect()
+    }
+}
+
+/// Compares the applied migrations with the embedded ones.
+fn schema_verdict(applied: &[(i64, Vec<u8>)], known: &[Migration]) -> Result<(), StoreError> {
+    let newest_known = known.iter().map(|m| m.version).max().unwrap_or(0);
+    for (version, checksum) in applied {
+        match known.iter().find(|m| m.version == *version) {
+            None => {
+                return Err(StoreError(format!(
+                    "the database schema has migration {version}, newer than this binary \
+                     knows (up to {newest_known}); run a newer asbuilt"
+                )))
+            }
+            Some(m) if m.checksum.as_ref() != checksum.as_slice() => {
+                return Err(StoreError(format!(
+                    "migration {version} ({}) was changed after it was applied",
+                    m.description
+                )))
+            }
+            Some(_) => {}
+        }
+    }
+    let missing: Vec<String> = known
+        .iter()
+        .filter(|m| !applied.iter().any(|(v, _)| *v == m.version))
+        .map(|m| m.version.to_string())
+        .collect();
+    if !missing.is_empty() {
+        return Err(StoreError(format!(
+            "the database schema lacks migration(s) {}; run `asbuilt migrate`",
+            missing.join(", ")
+        )));
+    }
+    Ok(())
+}
+
+#[async_trait]
+impl JobStore for PgJobStore {
+    async fn migrate(&self) -> Result<(), StoreError> {
+        // sqlx takes an advisory lock, so concurrent `migrate` runs apply each step once.
+        let migrator = Migrator::new(Embedded)
+            .await
+            .map_err(|e| StoreError(e.to_string()))?;
+        migrator
+            .run(&self.pool)
+            .await
+            .map_err(|e| StoreError(e.to_string()))
+    }
+
+    async fn check_schema(&self) -> Result<(), StoreError> {
+        let mut conn = self.pool.acquire().await?;
+        let exists: bool = sqlx::query_scalar(
+            "SELECT EXISTS (SELECT 1 FROM pg_tables \
+             WHERE schemaname = current_schema() AND tablename = '_sqlx_migrations')",
+        )
+        .fetch_one(&mut *conn)
+        .await?;
+        if !exists {
+            return Err(StoreError(
+                "the database has no asbuilt schema yet; run `asbuilt migrate`".into(),
+            ));
+        }
+        if let Some(v) = conn
+            .dirty_version()
+            .await
+            .map_err(|e| StoreError(e.to_string()))?
+        {
+            return Err(StoreError(format!(
+                "migration {v} failed part-way; fix the database and run `asbuilt migrate`"
+            )));
+        }
+        let applied: Vec<(i64, Vec<u8>)> = conn
+            .list_applied_migrations()
+            .await
+            .map_err(|e| StoreError(e.to_string()))?
+            .into_iter()
+            .map(|m| (m.version, m.checksum.into_owned()))
+            .collect();
+        schema_verdict(&applied, &migrations())
+    }
+
+    async fn ping(&self) -> Result<(), StoreError> {
+        sqlx::query("SELECT 1").execute(&self.pool).await?;
+        Ok(())
+    }
+
+    async fn wait_for_work(&self, timeout: Duration) {
+        match self.wake_signal().await {
+            Ok(notify) => {
+                let _ = tokio::time::timeout(timeout, notify.notified()).await;
+            }
+            Err(e) => {
+                tracing::warn!("cannot listen for new jobs ({e}); polling");
+                tokio::time::sleep(timeout).await;
+            }
+        }
+    }
+
+    async fn create(&self, job: NewJob) -> Result<Job, StoreError> {
+        let now = now_ms();
+        let sql = format!(
+            "INSERT INTO jobs (id, tenant, status, progress, params, upload, attempts, \
+             max_attempts, created_at, updated_at) \
+             VALUES ($1::uuid, $2, 'queued', 0, $3::jsonb, $4::jsonb, 0, $5, $6, $6) \
+             RETURNING {COLUMNS}"
+        );
+        let row = sqlx::query(&sql)
+            .bind(job.id.to_string())
+            .bind(&job.tenant)
+            .bind(job.params.to_string())
+            .bind(serde_json::to_string(&job.upload).map_err(|e| StoreError(e.to_string()))?)
+            .bind(job.max_attempts as i32)
+            .bind(now)
+            .fetch_one(&self.pool)
+            .await?;
+        Self::row_to_job(&row)
+    }
+
+    async fn get(&self, tenant: Option<&str>, id: JobId) -> Result<Option<Job>, StoreError> {
+        let sql = format!(
+            "SELECT {COLUMNS} FROM jobs WHERE id = $1::uuid AND ($2::text IS NULL OR tenant = $2)"
+        );
+        let row = sqlx::query(&sql)
+            .bind(id.to_string())
+            .bind(tenant)
+            .fetch_optional(&self.pool)
+            .await?;
+        row.as_ref().map(Self::row_to_job).transpose()
+    }
+
+    async fn list(&self, q: &ListQuery) -> Result<Vec<Job>, StoreError> {
+        let sql = format!(
+            "SELECT {COLUMNS} FROM jobs WHERE tenant = $1 AND ($2::text IS NULL OR status = $2) \
+             AND ($3::uuid IS NULL OR id < $3::uuid) ORDER BY id DESC LIMIT $4"
+        );
+        let rows = sqlx::query(&sql)
+            .bind(&q.tenant)
+            .bind(q.status.map(|s| s.as_str()))
+            .bind(q.before.map(|b| b.to_string()))
+            .bind(q.limit as i64)
+            .fetch_all(&self.pool)
+            .await?;
+        rows.iter().map(Self::row_to_job).collect()
+    }
+
+    async fn claim(&self, owner: &str, lease_ms: i64) -> Result<Option<Job>, StoreError> {
+        let now = now_ms();
+        // SKIP LOCKED: a row another worker is claiming right now is passed over, not waited on.
+        let sql = format!(
+            "UPDATE jobs SET status = 'running', lease_owner = $1, lease_until = $2, \
+             attempts = attempts + 1, started_at = COALESCE(started_at, $3), updated_at = $3, \
+             stage = NULL, progress = 0 \
+             WHERE id = (SELECT id FROM jobs WHERE status = 'queued' ORDER BY id LIMIT 1 \
+                         FOR UPDATE SKIP LOCKED) \
+             RETURNING {COLUMNS}"
+        );
+        let row = sqlx::query(&sql)
+            .bind(owner)
+            .bind(now + lease_ms)
+            .bind(now)
+            .fetch_optional(&self.pool)
+            .await?;
+        row.as_ref().map(Self::row_to_job).transpose()
+    }
+
+    async fn heartbeat(
+        &self,
+        id: JobId,
+        owner: &str,
+        lease_ms: i64,
+        beat: &Beat,
+    ) -> Result<Heartbeat, StoreError> {
+        let now = now_ms();
+        let done = sqlx::query(
+            "UPDATE jobs SET lease_until = $1, stage = $2, progress = $3, \
+             input = COALESCE($4::jsonb, input), updated_at = $5 \
+             WHERE id = $6::uuid AND status = 'running' AND lease_owner = $7",
+        )
+        .bind(now + lease_ms)
+        .bind(&beat.stage)
+        .bind(beat.progress.clamp(0.0, 1.0))
+        .bind(beat.input.as_ref().map(|v| v.to_string()))
+        .bind(now)
+        .bind(id.to_string())
+        .bind(owner)
+        .execute(&self.pool)
+        .await?;
+        Ok(if done.rows_affected() == 1 {
+            Heartbeat::Held
+        } else {
+            Heartbeat::Lost
+        })
+    }
+
+    async fn complete(
+        &self,
+        id: JobId,
+        owner: &str,
+        outcome: &JobOutcome,
+    ) -> Result<bool, StoreError> {
+        let now = now_ms();
+        let done = sqlx::query(
+            "UPDATE jobs SET status = 'succeeded', stage = NULL, progress = 1, input = $1::jsonb, \
+             timings = $2::jsonb, lease_owner = NULL, lease_until = NULL, finished_at = $3, \
+             updated_at = $3 WHERE id = $4::uuid AND status = 'running' AND lease_owner = $5",
+        )
+        .bind(outcome.input.to_string())
+        .bind(outcome.timings.to_string())
+        .bind(now)
+        .bind(id.to_string())
+        .bind(owner)
+        .execute(&self.pool)
+        .await?;
+        Ok(done.rows_affected() == 1)
+    }
+
+    async fn fail(&self, id: JobId, owner: &str, error: &JobError) -> Result<bool, StoreError> {
+        let now = now_ms();
+        let done = sqlx::query(
+            "UPDATE jobs SET status = 'failed', error_code = $1, error_message = $2, \
+             lease_owner = NULL, lease_until = NULL, finished_at = $3, updated_at = $3 \
+             WHERE id = $4::uuid AND status = 'running' AND lease_owner = $5",
+        )
+        .bind(&error.code)
+        .bind(&error.message)
+        .bind(now)
+        .bind(id.to_string())
+        .bind(owner)
+        .execute(&self.pool)
+        .await?;
+        Ok(done.rows_affected() == 1)
+    }
+
+    async fn release(&self, id: JobId, owner: &str) -> Result<bool, StoreError> {
+        let done = sqlx::query(
+            "UPDATE jobs SET status = 'queued', stage = NULL, progress = 0, \
+             attempts = GREATEST(attempts - 1, 0), lease_owner = NULL, lease_until = NULL, \
+             updated_at = $1 WHERE id = $2::uuid AND status = 'running' AND lease_owner = $3",
+        )
+        .bind(now_ms())
+        .bind(id.to_string())
+        .bind(owner)
+        .execute(&self.pool)
+        .await?;
+        Ok(done.rows_affected() == 1)
+    }
+
+    async fn requeue_expired(&self) -> Result<Expired, StoreError> {
+        let now = now_ms();
+        // Several processes may run this at once: each UPDATE re-checks its WHERE on rows another
+        // transaction just changed, so a job is requeued or failed once.
+        let mut tx = self.pool.begin().await?;
+        let failed = sqlx::query(
+            "UPDATE jobs SET status = 'failed', error_code = $1, \
+             error_message = 'the job''s worker stopped before finishing, ' || attempts || ' times', \
+             lease_owner = NULL, lease_until = NULL, finished_at = $2, updated_at = $2 \
+             WHERE status = 'running' AND lease_until < $2 AND attempts >= max_attempts \
+             RETURNING id::text AS id",
+        )
+        .bind(WORKER_LOST)
+        .bind(now)
+        .fetch_all(&mut *tx)
+        .await?;
+        let requeued = sqlx::query(
+            "UPDATE jobs SET status = 'queued', stage = NULL, progress = 0, lease_owner = NULL, \
+             lease_until = NULL, updated_at = $1 \
+             WHERE status = 'running' AND lease_until < $1 RETURNING id::text AS id",
+        )
+        .bind(now)
+        .fetch_all(&mut *tx)
+        .await?;
+        tx.commit().await?;
+        Ok(Expired {
+            requeued: Self::ids(&requeued)?,
+            failed: Self::ids(&failed)?,
+        })
+    }
+
+    async fn cancel(&self, tenant: &str, id: JobId) -> Result<Option<Job>, StoreError> {
+        let now = now_ms();
+        // A running job's worker learns of it at its next heartbeat and stops.
+        sqlx::query(
+            "UPDATE jobs SET status = 'cancelled', lease_owner = NULL, lease_until = NULL, \
+             finished_at = $1, updated_at = $1 \
+             WHERE id = $2::uuid AND tenant = $3 AND status IN ('queued', 'running')",
+        )
+        .bind(now)
+        .bind(id.to_string())
+        .bind(tenant)
+        .execute(&self.pool)
+        .await?;
+        self.get(Some(tenant), id).await
+    }
+
+    async fn delete(&self, id: JobId) -> Result<bool, StoreError> {
+        let done = sqlx::query("DELETE FROM jobs WHERE id = $1::uuid")
+            .bind(id.to_string())
+            .execute(&self.pool)
+            .await?;
+        Ok(done.rows_affected() == 1)
+    }
+
+    async fn finished_before(&self, before_ms: i64, limit: u32) -> Result<Vec<JobId>, StoreError> {
+        let rows = sqlx::query(
+            "SELECT id::text AS id FROM jobs WHERE finished_at IS NOT NULL AND finished_at < $1 \
+             ORDER BY finished_at LIMIT $2",
+        )
+        .bind(before_ms)
+        .bind(limit as i64)
+        .fetch_all(&self.pool)
+        .await?;
+        Self::ids(&rows)
+    }
+
+    async fn counts_by_status(&self) -> Result<Vec<(JobStatus, u64)>, StoreError> {
+        let rows = sqlx::query("SELECT status, COUNT(*) AS n FROM jobs GROUP BY status")
+            .fetch_all(&self.pool)
+            .await?;
+        let mut counts: Vec<(JobStatus, u64)> = JobStatus::ALL.iter().map(|&s| (s, 0)).collect();
+        for row in rows {
+            let status: String = row.try_get("status")?;
+            let n: i64 = row.try_get("n")?;
+            let status = JobStatus::from_str(&status).map_err(StoreError)?;
+            if let Some(slot) = counts.iter_mut().find(|(s, _)| *s == status) {
+                slot.1 = n as u64;
+            }
+        }
+        Ok(counts)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn applied(versions: &[i64]) -> Vec<(i64, Vec<u8>)> {
+        let known = migrations();
+        versions
+            .iter()
+            .map(|v| {
+                let sum = known
+                    .iter()
+                    .find(|m| m.version == *v)
+                    .map(|m| m.checksum.to_vec())
+                    .unwrap_or_default();
+                (*v, sum)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn schema_check_names_what_to_do() {
+        let known = migrations();
+        assert!(schema_verdict(&applied(&[1]), &known).is_ok());
+        let none = schema_verdict(&[], &known).unwrap_err().0;
+        assert!(none.contains("run `asbuilt migrate`"), "{none}");
+        let newer = schema_verdict(&applied(&[1, 99]), &known).unwrap_err().0;
+        assert!(newer.contains("newer than this binary"), "{newer}");
+        let changed = schema_verdict(&[(1, vec![0u8; 48])], &known).unwrap_err().0;
+        assert!(
+            changed.contains("changed after it was applied"),
+            "{changed}"
+        );
+    }
+}

@@ -1,0 +1,536 @@
+//! The embedded job store: one SQLite file in WAL mode, migrations compiled into the binary.
+
+use std::borrow::Cow;
+use std::path::Path;
+use std::str::FromStr;
+use std::time::Duration;
+
+use async_trait::async_trait;
+use futures_util::future::BoxFuture;
+use sqlx::error::BoxDynError;
+use sqlx::migrate::{Migration, MigrationSource, MigrationType, Migrator};
+use sqlx::sqlite::{
+    SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteRow,
+    SqliteSynchronous,
+};
+use sqlx::Row;
+
+use super::{
+    now_ms, Beat, Expired, Heartbeat, Job, JobError, JobId, JobOutcome, JobStatus, JobStore,
+    ListQuery, NewJob, StoreError, WORKER_LOST,
+};
+
+/// The SQLite migrations, in order: (version, description, SQL).
+const MIGRATIONS: &[(i64, &str, &str)] = &[(
+    1,
+    "jobs",
+    include_str!("../../migrations/sqlite/0001_jobs.sql"),
+)];
+
+/// Hands sqlx the migrations embedded above.
+#[derive(Debug)]
+struct Embedded;
+
+impl<'s> MigrationSource<'s> for Embedded {
+    fn resolve(self) -> BoxFuture<'s, Result<Vec<Migration>, BoxDynError>> {
+        Box::pin(async {
+            Ok(MIGRATIONS
+                .iter()
+                .map(|&(version, description, sql)| {
+                    Migration::new(
+                        version,
+                        Cow::Borrowed(description),
+                        MigrationType::Simple,
+                        Cow::Borrowed(sql),
+                        false,
+                    )
+                })
+                .collect())
+        })
+    }
+}
+
+/// Job state in an SQLite database.
+#[derive(Clone)]
+pub struct SqliteJobStore {
+    pool: SqlitePool,
+}
+
+const COLUMNS: &str = "id, tenant, status, stage, progress, params, upload, input, timings, \
+     error_code, error_message, attempts, max_attempts, created_at, started_at, finished_at, updated_at";
+
+impl SqliteJobStore {
+    /// Opens (creating if needed) the database file at `path`.
+    pub async fn open(path: &Path) -> Result<SqliteJobStore, StoreError> {
+        let options = SqliteConnectOptions::new()
+            .filename(path)
+            .create_if_missing(true)
+            .journal_mode(SqliteJournalMode::Wal)
+            // FULL: a job answered 202 survives power loss, not just a process crash.
+            .synchronous(SqliteSynchronous::Full)
+            .busy_timeout(Duration::from_secs(10))
+            .foreign_keys(true);
+        let pool = SqlitePoolOptions::new()
+            .max_connections(8)
+            .connect_with(options)
+            .await?;
+        Ok(SqliteJobStore { pool })
+    }
+
+    /// Opens a database given as `sqlite://PATH` or a plain path.
+    pub async fn open_url(url: &str) -> Result<SqliteJobStore, StoreError> {
+        let path = url
+            .strip_prefix("sqlite://")
+            .or_else(|| url.strip_prefix("sqlite:"))
+            .unwrap_or(url);
+        SqliteJobStore::open(Path::new(path)).await
+    }
+
+    fn row_to_job(row: &SqliteRow) -> Result<Job, StoreError> {
+        let json = |name: &str| -> Result<Option<serde_json::Value>, StoreError> {
+            let text: Option<String> = row.try_get(name)?;
+            text.map(|t| {
+                serde_json::from_str(&t).map_err(|e| StoreError(format!("column {name}: {e}")))
+            })
+            .transpose()
+        };
+        let id: String = row.try_get("id")?;
+        let status: String = row.try_get("status")?;
+        let upload: String = row.try_get("upload")?;
+        let error_code: Option<String> = row.try_get("error_code")?;
+        let error_message: Option<String> = row.try_get("error_message")?;
+        Ok(Job {
+            id: JobId::from_str(&id).map_err(|e| StoreError(format!("id {id}: {e}")))?,
+            tenant: row.try_get("tenant")?,
+            status: JobStatus::from_str(&status).map_err(StoreError)?,
+            stage: row.try_get("stage")?,
+            progress: row.try_get("progress")?,
+            params: json("params")?.unwrap_or_default(),
+            upload: serde_json::from_str(&upload)
+                .map_err(|e| StoreError(format!("column upload: {e}")))?,
+            input: json("input")?,
+            timings: json("timings")?,
+            error: error_code.map(|code| JobError {
+                code,
+                message: error_message.unwrap_or_default(),
+            }),
+            attempts: row.try_get::<i64, _>("attempts")? as u32,
+            max_attempts: row.try_get::<i64, _>("max_attempts")? as u32,
+            created_at: row.try_get("created_at")?,
+            started_at: row.try_get("started_at")?,
+            finished_at: row.try_get("finished_at")?,
+            updated_at: row.try_get("updated_at")?,
+        })
+    }
+}
+
+#[async_trait]
+impl JobStore for SqliteJobStore {
+    async fn migrate(&self) -> Result<(), StoreError> {
+        let migrator = Migrator::new(Embedded)
+            .await
+            .map_err(|e| StoreError(e.to_string()))?;
+        migrator
+            .run(&self.pool)
+            .await
+            .map_err(|e| StoreError(e.to_string()))
+    }
+
+    async fn ping(&self) -> Result<(), StoreError> {
+        sqlx::query("SELECT 1").execute(&self.pool).await?;
+        Ok(())
+    }
+
+    async fn create(&self, job: NewJob) -> Result<Job, StoreError> {
+        let now = now_ms();
+        let sql = format!(
+            "INSERT INTO jobs (id, tenant, status, progress, params, upload, attempts, max_attempts, \
+             created_at, updated_at) VALUES (?, ?, 'queued', 0, ?, ?, 0, ?, ?, ?) RETURNING {COLUMNS}"
+        );
+        let row = sqlx::query(&sql)
+            .bind(job.id.to_string())
+            .bind(&job.tenant)
+            .bind(job.params.to_string())
+            .bind(serde_json::to_string(&job.upload).map_err(|e| StoreError(e.to_string()))?)
+            .bind(job.max_attempts as i64)
+            .bind(now)
+            .bind(now)
+            .fetch_one(&self.pool)
+            .await?;
+        Self::row_to_job(&row)
+    }
+
+    async fn get(&self, tenant: Option<&str>, id: JobId) -> Result<Option<Job>, StoreError> {
+        let sql = format!("SELECT {COLUMNS} FROM jobs WHERE id = ? AND (? IS NULL OR tenant = ?)");
+        let row = sqlx::query(&sql)
+            .bind(id.to_string())
+            .bind(tenant)
+            .bind(tenant)
+            .fetch_optional(&self.pool)
+            .await?;
+        row.as_ref().map(Self::row_to_job).transpose()
+    }
+
+    async fn list(&self, q: &ListQuery) -> Result<Vec<Job>, StoreError> {
+        let sql = format!(
+            "SELECT {COLUMNS} FROM jobs WHERE tenant = ? AND (? IS NULL OR status = ?) \
+             AND (? IS NULL OR id < ?) ORDER BY id DESC LIMIT ?"
+        );
+        let status = q.status.map(|s| s.as_str());
+        let before = q.before.map(|b| b.to_string());
+        let rows = sqlx::query(&sql)
+            .bind(&q.tenant)
+            .bind(status)
+            .bind(status)
+            .bind(&before)
+            .bind(&before)
+            .bind(q.limit as i64)
+            .fetch_all(&self.pool)
+            .await?;
+        rows.iter().map(Self::row_to_job).collect()
+    }
+
+    async fn claim(&self, owner: &str, lease_ms: i64) -> Result<Option<Job>, StoreError> {
+        let now = now_ms();
+        // One statement: SQLite serialises writers, so two workers never take the same row.
+        let sql = format!(
+            "UPDATE jobs SET status = 'running', lease_owner = ?, lease_until = ?, \
+             attempts = attempts + 1, started_at = COALESCE(started_at, ?), updated_at = ?, \
+             stage = NULL, progress = 0 \
+             WHERE id = (SELECT id FROM jobs WHERE status = 'queued' ORDER BY id LIMIT 1) \
+             AND status = 'queued' RETURNING {COLUMNS}"
+        );
+        let row = sqlx::query(&sql)
+            .bind(owner)
+            .bind(now + lease_ms)
+            .bind(now)
+            .bind(now)
+            .fetch_optional(&self.pool)
+            .await?;
+        row.as_ref().map(Self::row_to_job).transpose()
+    }
+
+    async fn heartbeat(
+        &self,
+        id: JobId,
+        owner: &str,
+        lease_ms: i64,
+        beat: &Beat,
+    ) -> Result<Heartbeat, StoreError> {
+        let now = now_ms();
+        let done = sqlx::query(
+            "UPDATE jobs SET lease_until = ?, stage = ?, progress = ?, \
+             input = COALESCE(?, input), updated_at = ? \
+             WHERE id = ? AND status = 'running' AND lease_owner = ?",
+        )
+        .bind(now + lease_ms)
+        .bind(&beat.stage)
+        .bind(beat.progress.clamp(0.0, 1.0))
+        .bind(beat.input.as_ref().map(|v| v.to_string()))
+        .bind(now)
+        .bind(id.to_string())
+        .bind(owner)
+        .execute(&self.pool)
+        .await?;
+        Ok(if done.rows_affected() == 1 {
+            Heartbeat::Held
+        } else {
+            Heartbeat::Lost
+        })
+    }
+
+    async fn complete(
+        &self,
+        id: JobId,
+        owner: &str,
+        outcome: &JobOutcome,
+    ) -> Result<bool, StoreError> {
+        let now = now_ms();
+        let done = sqlx::query(
+            "UPDATE jobs SET status = 'succeeded', stage = NULL, progress = 1, input = ?, \
+             timings = ?, lease_owner = NULL, lease_until = NULL, finished_at = ?, updated_at = ? \
+             WHERE id = ? AND status = 'running' AND lease_owner = ?",
+        )
+        .bind(outcome.input.to_string())
+        .bind(outcome.timings.to_string())
+        .bind(now)
+        .bind(now)
+        .bind(id.to_string())
+        .bind(owner)
+        .execute(&self.pool)
+        .await?;
+        Ok(done.rows_affected() == 1)
+    }
+
+    async fn fail(&self, id: JobId, owner: &str, error: &JobError) -> Result<bool, StoreError> {
+        let now = now_ms();
+        let done = sqlx::query(
+            "UPDATE jobs SET status = 'failed', error_code = ?, error_message = ?, \
+             lease_owner = NULL, lease_until = NULL, finished_at = ?, updated_at = ? \
+             WHERE id = ? AND status = 'running' AND lease_owner = ?",
+        )
+        .bind(&error.code)
+        .bind(&error.message)
+        .bind(now)
+        .bind(now)
+        .bind(id.to_string())
+        .bind(owner)
+        .execute(&self.pool)
+        .await?;
+        Ok(done.rows_affected() == 1)
+    }
+
+    async fn release(&self, id: JobId, owner: &str) -> Result<bool, StoreError> {
+        let done = sqlx::query(
+            "UPDATE jobs SET status = 'queued', stage = NULL, progress = 0, \
+             attempts = MAX(attempts - 1, 0), lease_owner = NULL, lease_until = NULL, updated_at = ? \
+             WHERE id = ? AND status = 'running' AND lease_owner = ?",
+        )
+        .bind(now_ms())
+        .bind(id.to_string())
+        .bind(owner)
+        .execute(&self.pool)
+        .await?;
+        Ok(done.rows_affected() == 1)
+    }
+
+    async fn requeue_expired(&self) -> Result<Expired, StoreError> {
+        let now = now_ms();
+        let mut tx = self.pool.begin().await?;
+        let failed = sqlx::query(
+            "UPDATE jobs SET status = 'failed', error_code = ?, \
+             error_message = 'the job''s worker stopped before finishing, ' || attempts || ' times', \
+             lease_owner = NULL, lease_until = NULL, finished_at = ?, updated_at = ? \
+             WHERE status = 'running' AND lease_until < ? AND attempts >= max_attempts RETURNING id",
+        )
+        .bind(WORKER_LOST)
+        .bind(now)
+        .bind(now)
+        .bind(now)
+        .fetch_all(&mut *tx)
+        .await?;
+        let requeued = sqlx::query(
+            "UPDATE jobs SET status = 'queued', stage = NULL, progress = 0, lease_owner = NULL, \
+             lease_until = NULL, updated_at = ? \
+             WHERE status = 'running' AND lease_until < ? RETURNING id",
+        )
+        .bind(now)
+        .bind(now)
+        .fetch_all(&mut *tx)
+        .await?;
+        tx.commit().await?;
+        let ids = |rows: Vec<SqliteRow>| -> Result<Vec<JobId>, StoreError> {
+            rows.iter()
+                .map(|r| {
+                    let s: String = r.try_get("id")?;
+                    JobId::from_str(&s).map_err(|e| StoreError(e.to_string()))
+                })
+                .collect()
+        };
+        Ok(Expired {
+            requeued: ids(requeued)?,
+            failed: ids(failed)?,
+        })
+    }
+
+    async fn cancel(&self, tenant: &str, id: JobId) -> Result<Option<Job>, StoreError> {
+        let now = now_ms();
+        // A running job's worker learns of it at its next heartbeat and stops.
+        sqlx::query(
+            "UPDATE jobs SET status = 'cancelled', lease_owner = NULL, lease_until = NULL, \
+             finished_at = ?, updated_at = ? \
+             WHERE id = ? AND tenant = ? AND status IN ('queued', 'running')",
+        )
+        .bind(now)
+        .bind(now)
+        .bind(id.to_string())
+        .bind(tenant)
+        .execute(&self.pool)
+        .await?;
+        self.get(Some(tenant), id).await
+    }
+
+    async fn delete(&self, id: JobId) -> Result<bool, StoreError> {
+        let done = sqlx::query("DELETE FROM jobs WHERE id = ?")
+            .bind(id.to_string())
+            .execute(&self.pool)
+            .await?;
+        Ok(done.rows_affected() == 1)
+    }
+
+    async fn finished_before(&self, before_ms: i64, limit: u32) -> Result<Vec<JobId>, StoreError> {
+        let rows = sqlx::query(
+            "SELECT id FROM jobs WHERE finished_at IS NOT NULL AND finished_at < ? \
+             ORDER BY finished_at LIMIT ?",
+        )
+        .bind(before_ms)
+        .bind(limit as i64)
+        .fetch_all(&self.pool)
+        .await?;
+        rows.iter()
+            .map(|r| {
+                let s: String = r.try_get("id")?;
+                JobId::from_str(&s).map_err(|e| StoreError(e.to_string()))
+            })
+            .collect()
+    }
+
+    async fn counts_by_status(&self) -> Result<Vec<(JobStatus, u64)>, StoreError> {
+        let rows = sqlx::query("SELECT status, COUNT(*) AS n FROM jobs GROUP BY status")
+            .fetch_all(&self.pool)
+            .await?;
+        let mut counts: Vec<(JobStatus, u64)> = JobStatus::ALL.iter().map(|&s| (s, 0)).collect();
+        for row in rows {
+            let status: String = row.try_get("status")?;
+            let n: i64 = row.try_get("n")?;
+            let status = JobStatus::from_str(&status).map_err(StoreError)?;
+            if let Some(slot) = counts.iter_mut().find(|(s, _)| *s == status) {
+                slot.1 = n as u64;
+            }
+        }
+        Ok(counts)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::queue::UploadInfo;
+
+    async fn store() -> (tempfile::TempDir, SqliteJobStore) {
+        let dir = tempfile::tempdir().unwrap();
+        let store = SqliteJobStore::open(&dir.path().join("jobs.db"))
+            .await
+            .unwrap();
+        store.migrate().await.unwrap();
+        (dir, store)
+    }
+
+    fn new_job(tenant: &str, max_attempts: u32) -> NewJob {
+        NewJob {
+            id: JobId::new(),
+            tenant: tenant.into(),
+            params: serde_json::json!({}),
+            upload: UploadInfo {
+                bytes: 3,
+                sha256: "ab".into(),
+                format: "ply".into(),
+                ..Default::default()
+            },
+            max_attempts,
+        }
+    }
+
+    fn beat() -> Beat {
+        Beat {
+            stage: Some("samples".into()),
+            progress: 0.5,
+            input: None,
+        }
+    }
+
+    #[tokio::test]
+    async fn claim_heartbeat_complete() {
+        let (_d, s) = store().await;
+        let job = s.create(new_job("a", 3)).await.unwrap();
+        assert_eq!(job.status, JobStatus::Queued);
+        let claimed = s.claim("w1", 10_000).await.unwrap().unwrap();
+        assert_eq!((claimed.id, claimed.attempts), (job.id, 1));
+        assert!(s.claim("w2", 10_000).await.unwrap().is_none());
+        assert_eq!(
+            s.heartbeat(job.id, "w2", 10_000, &beat()).await.unwrap(),
+            Heartbeat::Lost
+        );
+        assert_eq!(
+            s.heartbeat(job.id, "w1", 10_000, &beat()).await.unwrap(),
+            Heartbeat::Held
+        );
+        let got = s.get(Some("a"), job.id).await.unwrap().unwrap();
+        assert_eq!((got.stage.as_deref(), got.progress), (Some("samples"), 0.5));
+        let outcome = JobOutcome {
+            input: serde_json::json!({"points": 9}),
+            timings: serde_json::json!({"total": 1}),
+        };
+        assert!(!s.complete(job.id, "w2", &outcome).await.unwrap());
+        assert!(s.complete(job.id, "w1", &outcome).await.unwrap());
+        let got = s.get(None, job.id).await.unwrap().unwrap();
+        assert_eq!(got.status, JobStatus::Succeeded);
+        assert_eq!(got.input.unwrap()["points"], 9);
+        assert!(s.get(Some("b"), job.id).await.unwrap().is_none());
+    }
+
+    #[tokio::test]
+    async fn expired_leases_requeue_then_fail() {
+        let (_d, s) = store().await;
+        let job = s.create(new_job("a", 2)).await.unwrap();
+        for attempt in 1..=2 {
+            let c = s.claim("w", 1).await.unwrap().unwrap();
+            assert_eq!(c.attempts, attempt);
+            tokio::time::sleep(Duration::from_millis(5)).await;
+            let e = s.requeue_expired().await.unwrap();
+            if attempt == 1 {
+                assert_eq!(e.requeued, vec![job.id]);
+            } else {
+                assert_eq!(e.failed, vec![job.id]);
+            }
+        }
+        let got = s.get(None, job.id).await.unwrap().unwrap();
+        assert_eq!(got.status, JobStatus::Failed);
+        assert_eq!(got.error.unwrap().code, WORKER_LOST);
+    }
+
+    #[tokio::test]
+    async fn release_gives_the_attempt_back_and_cancel_stops_the_worker() {
+        let (_d, s) = store().await;
+        let job = s.create(new_job("a", 3)).await.unwrap();
+        s.claim("w", 10_000).await.unwrap().unwrap();
+        assert!(s.release(job.id, "w").await.unwrap());
+        let again = s.claim("w", 10_000).await.unwrap().unwrap();
+        assert_eq!(again.attempts, 1);
+        assert!(s.cancel("b", job.id).await.unwrap().is_none());
+        let c = s.cancel("a", job.id).await.unwrap().unwrap();
+        assert_eq!(c.status, JobStatus::Cancelled);
+        assert_eq!(
+            s.heartbeat(job.id, "w", 10_000, &beat()).await.unwrap(),
+            Heartbeat::Lost
+        );
+        assert!(s.delete(job.id).await.unwrap());
+        assert!(s.get(None, job.id).await.unwrap().is_none());
+    }
+
+    #[tokio::test]
+    async fn lists_newest_first_by_tenant_and_status() {
+        let (_d, s) = store().await;
+        let mut ids = vec![];
+        for _ in 0..5 {
+            ids.push(s.create(new_job("a", 3)).await.unwrap().id);
+        }
+        s.create(new_job("b", 3)).await.unwrap();
+        let mut q = ListQuery {
+            tenant: "a".into(),
+            status: None,
+            before: None,
+            limit: 2,
+        };
+        let mut seen = vec![];
+        loop {
+            let page = s.list(&q).await.unwrap();
+            if page.is_empty() {
+                break;
+            }
+            q.before = Some(page.last().unwrap().id);
+            seen.extend(page.into_iter().map(|j| j.id));
+        }
+        ids.sort();
+        ids.reverse();
+        assert_eq!(seen, ids);
+        s.claim("w", 10_000).await.unwrap();
+        q.before = None;
+        q.limit = 10;
+        q.status = Some(JobStatus::Running);
+        assert_eq!(s.list(&q).await.unwrap().len(), 1);
+        let counts = s.counts_by_status().await.unwrap();
+        assert_eq!(counts[0], (JobStatus::Queued, 5));
+        assert_eq!(counts[1], (JobStatus::Running, 1));
+    }
+}

@@ -1,0 +1,68 @@
+//! The HTTP routes. [`ROUTES`] lists them for the OpenAPI test; [`build`] wires them.
+
+use axum::extract::DefaultBodyLimit;
+use axum::routing::{get, post};
+use axum::Router;
+use tower_http::trace::TraceLayer;
+
+use crate::app::AppState;
+use crate::controllers::{self, jobs};
+
+/// Every route, as (method, OpenAPI path). The OpenAPI test checks the document against it,
+/// and that each of these reaches a handler.
+pub const ROUTES: &[(&str, &str)] = &[
+    ("GET", "/"),
+    ("GET", "/healthz"),
+    ("GET", "/readyz"),
+    ("GET", "/metrics"),
+    ("GET", "/openapi.json"),
+    ("GET", "/v1/parameters"),
+    ("POST", "/v1/jobs"),
+    ("GET", "/v1/jobs"),
+    ("GET", "/v1/jobs/{id}"),
+    ("DELETE", "/v1/jobs/{id}"),
+    ("GET", "/v1/jobs/{id}/events"),
+    ("GET", "/v1/jobs/{id}/plan.geojson"),
+    ("GET", "/v1/jobs/{id}/plan.svg"),
+    ("GET", "/v1/jobs/{id}/plan.dxf"),
+];
+
+/// A worker-only process's router: liveness, readiness and metrics for probes and scrapers.
+pub fn worker(state: AppState) -> Router {
+    Router::new()
+        .route("/healthz", get(controllers::health::healthz))
+        .route("/readyz", get(controllers::health::readyz))
+        .route("/metrics", get(controllers::metrics::metrics))
+        .fallback(controllers::route_not_found)
+        .with_state(state)
+}
+
+/// The application's router.
+pub fn build(state: AppState) -> Router {
+    Router::new()
+        .route("/", get(controllers::page::index))
+        .route("/healthz", get(controllers::health::healthz))
+        .route("/readyz", get(controllers::health::readyz))
+        .route("/metrics", get(controllers::metrics::metrics))
+        .route("/openapi.json", get(controllers::openapi::document))
+        .route("/v1/parameters", get(controllers::parameters::defaults))
+        .route(
+            "/v1/jobs",
+            // Uploads stream with their own limit; the default 2 MB body limit must not apply.
+            post(jobs::create::create)
+                .layer(DefaultBodyLimit::disable())
+                .get(jobs::list::list),
+        )
+        .route(
+            "/v1/jobs/{id}",
+            get(jobs::show::show).delete(jobs::delete::delete),
+        )
+        .route("/v1/jobs/{id}/events", get(jobs::events::events))
+        .route("/v1/jobs/{id}/plan.geojson", get(jobs::results::geojson))
+        .route("/v1/jobs/{id}/plan.svg", get(jobs::results::svg))
+        .route("/v1/jobs/{id}/plan.dxf", get(jobs::results::dxf))
+        .fallback(controllers::route_not_found)
+        .method_not_allowed_fallback(controllers::method_not_allowed)
+        .layer(TraceLayer::new_for_http())
+        .with_state(state)
+}

@@ -1,0 +1,163 @@
+//! A synthetic pipeline for testing the service without the real stages (`--fake-pipeline-ms`).
+//!
+//! It counts the cloud's non-empty lines as points, spends a fixed time in each stage (checking
+//! for cancellation every 10 ms), and returns a 4 m × 3 m one-story plan through the real
+//! writers (with `spin`, it burns CPU instead of sleeping). A cloud whose text contains `#fail:CODE` fails with CODE; `#panic` panics. Each run
+//! that completes appends its job id to the completions log, so tests can count runs.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use asbuilt_plan::io::{dxf, geojson, svg};
+use asbuilt_plan::plan::{FloorPlan, InputSummary, Polygon, StoryPlan, Wall, WallModel};
+use asbuilt_plan::progress::{Progress, Stage};
+
+use super::pipeline::{check_points, JobInput, JobResults, Pipeline, PipelineFailure};
+
+/// The stages the fake walks through, with their share of the run.
+const STAGES: [Stage; 7] = [
+    Stage::Read,
+    Stage::Stories,
+    Stage::Samples,
+    Stage::Labeling,
+    Stage::Cleanup,
+    Stage::Fitting,
+    Stage::Write,
+];
+
+/// See the module documentation.
+pub struct FakePipeline {
+    pub stage_time: Duration,
+    pub completions: Option<PathBuf>,
+    /// Burn CPU instead of sleeping (load measurements).
+    pub spin: bool,
+}
+
+impl FakePipeline {
+    fn wait(&self, progress: &dyn Progress) -> Result<(), PipelineFailure> {
+        let end = Instant::now() + self.stage_time;
+        loop {
+            if progress.cancelled() {
+                return Err(PipelineFailure::cancelled());
+            }
+            let now = Instant::now();
+            if now >= end {
+                return Ok(());
+            }
+            if self.spin {
+                let until = now + (end - now).min(Duration::from_millis(10));
+                while Instant::now() < until {
+                    std::hint::spin_loop();
+                }
+            } else {
+                std::thread::sleep((end - now).min(Duration::from_millis(10)));
+            }
+        }
+    }
+}
+
+/// The plan every fake run returns: one story, a 4 × 3 m room, one arc wall.
+pub fn square_plan(points: u64) -> FloorPlan {
+    let arc: Vec<[f64; 2]> = (0..=8)
+        .map(|i| {
+            let a = std::f64::consts::PI * (i as f64 / 8.0 - 0.5);
+            [4.0 + 0.5 * a.cos(), 1.5 + 0.5 * a.sin()]
+        })
+        .collect();
+    FloorPlan {
+        origin: [0.0; 3],
+        crs: None,
+        input: InputSummary {
+            points,
+            format: "xyz".into(),
+            scans: 0,
+        },
+        parameters: asbuilt_plan::Params::default().to_json(),
+        timings_ms: vec![],
+        stories: vec![StoryPlan {
+            level: 0,
+            floor_z: 0.0,
+            ceiling_z: 2.5,
+            polygons: vec![Polygon {
+                exterior: vec![[0.0, 0.0], [4.0, 0.0], [4.0, 3.0], [0.0, 3.0]],
+                holes: vec![],
+            }],
+            walls: vec![
+                Wall {
+                    model: WallModel::Line,
+                    points: vec![[0.0, 0.0], [4.0, 0.0]],
+                    support: 10,
+                },
+                Wall {
+                    model: WallModel::Arc {
+                        center: [4.0, 1.5],
+                        radius: 0.5,
+                    },
+                    points: arc,
+                    support: 5,
+                },
+            ],
+            samples: vec![],
+        }],
+        notes: vec![],
+    }
+}
+
+impl Pipeline for FakePipeline {
+    fn run(
+        &self,
+        input: &JobInput,
+        progress: &mut dyn Progress,
+    ) -> Result<JobResults, PipelineFailure> {
+        let text = std::fs::read(&input.cloud)
+            .map_err(|e| PipelineFailure::new("io_error", e.to_string()))?;
+        let text = String::from_utf8_lossy(&text);
+        if text.contains("#panic") {
+            panic!("the fake pipeline was asked to panic");
+        }
+        if let Some(rest) = text.split("#fail:").nth(1) {
+            let code: String = rest
+                .chars()
+                .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+                .collect();
+            return Err(PipelineFailure::new(
+                &code,
+                "the fake pipeline was asked to fail",
+            ));
+        }
+        let points = text
+            .lines()
+            .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
+            .count() as u64;
+        check_points(points, input.max_points)?;
+        let mut timings = vec![];
+        for (i, stage) in STAGES.iter().enumerate() {
+            progress.report(*stage, i as f64 / STAGES.len() as f64);
+            let start = Instant::now();
+            self.wait(progress)?;
+            timings.push((stage.name().to_string(), start.elapsed().as_millis() as u64));
+        }
+        let total = timings.iter().map(|(_, ms)| ms).sum();
+        timings.push(("total".into(), total));
+        let mut plan = square_plan(points);
+        plan.timings_ms = timings.clone();
+        let results = JobResults {
+            input: serde_json::to_value(&plan.input).unwrap_or_default(),
+            timings_ms: timings,
+            geojson: geojson::to_geojson_string(&plan).into_bytes(),
+            svg: svg::to_svg(&plan).into_bytes(),
+            dxf: dxf::to_dxf(&plan)
+                .map_err(|e| PipelineFailure::new("output_failed", e.to_string()))?,
+        };
+        if let Some(log) = &self.completions {
+            let mut f = std::fs::OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(log)
+                .map_err(|e| PipelineFailure::new("io_error", e.to_string()))?;
+            let _ = writeln!(f, "{}", input.job);
+        }
+        Ok(results)
+    }
+}

@@ -1,0 +1,55 @@
+//! Periodic upkeep: requeue jobs whose worker died, and delete finished jobs past retention.
+
+use std::time::Duration;
+
+use tokio_util::sync::CancellationToken;
+
+use crate::app::AppState;
+use crate::queue::{now_ms, WORKER_LOST};
+use crate::storage::keys;
+
+/// How often the sweeper runs: often enough to notice a lost lease well within its length.
+pub fn interval(lease_secs: u64) -> Duration {
+    Duration::from_millis((lease_secs * 1000 / 2).clamp(200, 5000))
+}
+
+/// Sweeps until `stop` is cancelled.
+pub async fn run(state: AppState, stop: CancellationToken) {
+    let every = interval(state.config.lease_secs);
+    loop {
+        if let Err(e) = sweep(&state).await {
+            tracing::warn!(error = %e, "sweep failed");
+        }
+        tokio::select! {
+            _ = tokio::time::sleep(every) => {}
+            _ = stop.cancelled() => return,
+        }
+    }
+}
+
+/// One pass: expired leases, then retention.
+pub async fn sweep(state: &AppState) -> anyhow::Result<()> {
+    let expired = state.store.requeue_expired().await?;
+    for id in &expired.requeued {
+        tracing::warn!(job = %id, "worker lease expired; job requeued");
+        state.queued.notify_one();
+        state.changed(*id);
+    }
+    for id in &expired.failed {
+        tracing::warn!(job = %id, "worker lease expired too often; job failed");
+        state.metrics.failure(WORKER_LOST);
+        state.changed(*id);
+    }
+    let retention_ms = (state.config.retention_hours * 3_600_000) as i64;
+    let old = state
+        .store
+        .finished_before(now_ms() - retention_ms, 100)
+        .await?;
+    for id in old {
+        // Blobs first: a row without blobs is harmless, blobs without a row would leak.
+        state.blobs.delete_prefix(&keys::job_prefix(id)).await?;
+        state.store.delete(id).await?;
+        tracing::info!(job = %id, "retention: job data deleted");
+    }
+    Ok(())
+}

@@ -1,0 +1,547 @@
+//! The queue and storage suite, run on both backends: SQLite with a local directory (the
+//! embedded default) and PostgreSQL with S3 (scale-out). Every test runs once per backend, on
+//! real engines; the PostgreSQL + S3 half skips without `ASBUILT_TEST_POSTGRES` and
+//! `ASBUILT_TEST_S3_ENDPOINT` (see tests/support/engines.rs), and fails without them under CI.
+
+mod support;
+
+use std::collections::BTreeSet;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use asbuilt::queue::postgres::PgJobStore;
+use asbuilt::queue::sqlite::SqliteJobStore;
+use asbuilt::queue::{
+    Beat, Heartbeat, JobError, JobId, JobOutcome, JobStatus, JobStore, ListQuery, NewJob,
+    UploadInfo, WORKER_LOST,
+};
+use asbuilt::storage::{local, s3, BlobError, BlobStore, ByteStream};
+use bytes::Bytes;
+use futures_util::StreamExt;
+use sha2::{Digest, Sha256};
+use support::engines::{engines, unique, Engines};
+
+/// One backend pair, fresh for one test.
+struct Backend {
+    name: &'static str,
+    store: Arc<dyn JobStore>,
+    blobs: Arc<dyn BlobStore>,
+    /// Opens a second, independent handle on the same database, as another process would.
+    reopen: Box<dyn Fn() -> futures_util::future::BoxFuture<'static, Arc<dyn JobStore>> + Send>,
+    cleanup: Cleanup,
+}
+
+enum Cleanup {
+    Dir(#[allow(dead_code)] tempfile::TempDir),
+    Schema(Engines, String),
+}
+
+impl Backend {
+    async fn sqlite_local() -> Backend {
+        let dir = tempfile::tempdir().unwrap();
+        let db = dir.path().join("jobs.db");
+        let store = SqliteJobStore::open(&db).await.unwrap();
+        store.migrate().await.unwrap();
+        let blobs = local::open(&dir.path().join("blobs")).unwrap();
+        Backend {
+            name: "sqlite+local",
+            store: Arc::new(store),
+            blobs: Arc::new(blobs),
+            reopen: Box::new(move || {
+                let db = db.clone();
+                Box::pin(async move {
+                    Arc::new(SqliteJobStore::open(&db).await.unwrap()) as Arc<dyn JobStore>
+                })
+            }),
+            cleanup: Cleanup::Dir(dir),
+        }
+    }
+
+    /// `None` when the engines are not configured (and CI is not set).
+    async fn postgres_s3(test: &str) -> Option<Backend> {
+        let engines = engines(test)?;
+        let schema = engines.new_schema("suite").await;
+        let url = engines.url_in(&schema);
+        let store = PgJobStore::connect(&url).await.unwrap();
+        store.migrate().await.unwrap();
+        engines.ensure_bucket("asbuilt-suite").await;
+        let blobs = s3::open(
+            &format!("s3://asbuilt-suite/{}", unique("t")),
+            &engines.s3_options(),
+        )
+        .unwrap();
+        Some(Backend {
+            name: "postgres+s3",
+            store: Arc::new(store),
+            blobs: Arc::new(blobs),
+            reopen: Box::new(move || {
+                let url = url.clone();
+                Box::pin(async move {
+                    Arc::new(PgJobStore::connect(&url).await.unwrap()) as Arc<dyn JobStore>
+                })
+            }),
+            cleanup: Cleanup::Schema(engines, schema),
+        })
+    }
+
+    async fn finish(self) {
+        if let Cleanup::Schema(engines, schema) = &self.cleanup {
+            engines.drop_schema(schema).await;
+        }
+    }
+}
+
+/// Runs a suite function on both backends.
+macro_rules! on_both_backends {
+    ($($name:ident),* $(,)?) => {
+        mod sqlite_local {
+            $(#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+            async fn $name() {
+                let b = super::Backend::sqlite_local().await;
+                super::$name(&b).await;
+                b.finish().await;
+            })*
+        }
+        mod postgres_s3 {
+            $(#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+            async fn $name() {
+                let Some(b) = super::Backend::postgres_s3(stringify!($name)).await else {
+                    return;
+                };
+                super::$name(&b).await;
+                b.finish().await;
+            })*
+        }
+    };
+}
+
+on_both_backends!(
+    claim_heartbeat_complete,
+    expired_leases_requeue_then_fail,
+    release_cancel_and_delete,
+    lists_newest_first_with_pages_and_counts,
+    concurrent_claims_take_each_job_once,
+    idle_workers_wake_when_a_job_is_queued,
+    schema_is_checked,
+    blobs_stream_in_and_out_in_parts,
+    oversized_and_broken_uploads_leave_nothing,
+    delete_prefix_removes_only_that_job,
+    results_are_whole_or_absent,
+    presigned_urls_fetch_the_object_when_configured,
+);
+
+fn new_job(tenant: &str, max_attempts: u32) -> NewJob {
+    NewJob {
+        id: JobId::new(),
+        tenant: tenant.into(),
+        params: serde_json::json!({"samples": {"cell_size": 0.05}}),
+        upload: UploadInfo {
+            filename: Some("scan.ply".into()),
+            bytes: 3,
+            sha256: "ab".into(),
+            format: "ply".into(),
+            sidecar: None,
+        },
+        max_attempts,
+    }
+}
+
+fn beat(stage: &str, progress: f64) -> Beat {
+    Beat {
+        stage: Some(stage.into()),
+        progress,
+        input: None,
+    }
+}
+
+fn outcome(points: u64) -> JobOutcome {
+    JobOutcome {
+        input: serde_json::json!({"points": points, "format": "ply", "scans": 2}),
+        timings: serde_json::json!({"stories": 3, "total": 10}),
+    }
+}
+
+async fn claim_heartbeat_complete(b: &Backend) {
+    let s = &b.store;
+    let job = s.create(new_job("a", 3)).await.unwrap();
+    assert_eq!(job.status, JobStatus::Queued, "{}", b.name);
+    assert_eq!(job.params["samples"]["cell_size"], 0.05);
+    assert_eq!(job.upload.filename.as_deref(), Some("scan.ply"));
+    let claimed = s.claim("w1", 10_000).await.unwrap().unwrap();
+    assert_eq!((claimed.id, claimed.attempts), (job.id, 1));
+    assert_eq!(claimed.status, JobStatus::Running);
+    assert!(claimed.started_at.is_some());
+    assert!(s.claim("w2", 10_000).await.unwrap().is_none());
+    assert_eq!(
+        s.heartbeat(job.id, "w2", 10_000, &beat("samples", 0.5))
+            .await
+            .unwrap(),
+        Heartbeat::Lost
+    );
+    assert_eq!(
+        s.heartbeat(job.id, "w1", 10_000, &beat("samples", 1.5))
+            .await
+            .unwrap(),
+        Heartbeat::Held
+    );
+    let got = s.get(Some("a"), job.id).await.unwrap().unwrap();
+    // Progress is clamped to 0..1.
+    assert_eq!((got.stage.as_deref(), got.progress), (Some("samples"), 1.0));
+    assert!(!s.complete(job.id, "w2", &outcome(9)).await.unwrap());
+    assert!(s.complete(job.id, "w1", &outcome(9)).await.unwrap());
+    // A second completion of the same run is refused: the lease is gone.
+    assert!(!s.complete(job.id, "w1", &outcome(9)).await.unwrap());
+    let got = s.get(None, job.id).await.unwrap().unwrap();
+    assert_eq!(got.status, JobStatus::Succeeded);
+    assert_eq!(got.input.unwrap()["points"], 9);
+    assert_eq!(got.timings.unwrap()["total"], 10);
+    assert!(got.finished_at.unwrap() >= got.started_at.unwrap());
+    assert!(s.get(Some("b"), job.id).await.unwrap().is_none());
+}
+
+async fn expired_leases_requeue_then_fail(b: &Backend) {
+    let s = &b.store;
+    let job = s.create(new_job("a", 2)).await.unwrap();
+    for attempt in 1..=2 {
+        let c = s.claim("w", 1).await.unwrap().unwrap();
+        assert_eq!(c.attempts, attempt);
+        tokio::time::sleep(Duration::from_millis(20)).await;
+        let e = s.requeue_expired().await.unwrap();
+        if attempt == 1 {
+            assert_eq!((e.requeued, e.failed), (vec![job.id], vec![]));
+            // The dead worker's late heartbeat is refused.
+            let late = s.heartbeat(job.id, "w", 10_000, &beat("x", 0.1)).await;
+            assert_eq!(late.unwrap(), Heartbeat::Lost);
+        } else {
+            assert_eq!((e.requeued, e.failed), (vec![], vec![job.id]));
+        }
+    }
+    let got = s.get(None, job.id).await.unwrap().unwrap();
+    assert_eq!(got.status, JobStatus::Failed);
+    assert_eq!(got.error.unwrap().code, WORKER_LOST);
+    let e = s.requeue_expired().await.unwrap();
+    assert!(e.requeued.is_empty() && e.failed.is_empty());
+}
+
+async fn release_cancel_and_delete(b: &Backend) {
+    let s = &b.store;
+    let job = s.create(new_job("a", 3)).await.unwrap();
+    s.claim("w", 10_000).await.unwrap().unwrap();
+    assert!(!s.release(job.id, "other").await.unwrap());
+    assert!(s.release(job.id, "w").await.unwrap());
+    let again = s.claim("w", 10_000).await.unwrap().unwrap();
+    assert_eq!(again.attempts, 1, "release gives the attempt back");
+    assert!(s.cancel("b", job.id).await.unwrap().is_none());
+    let c = s.cancel("a", job.id).await.unwrap().unwrap();
+    assert_eq!(c.status, JobStatus::Cancelled);
+    assert_eq!(
+        s.heartbeat(job.id, "w", 10_000, &beat("x", 0.2))
+            .await
+            .unwrap(),
+        Heartbeat::Lost
+    );
+    let err = JobError {
+        code: "x".into(),
+        message: "y".into(),
+    };
+    assert!(!s.fail(job.id, "w", &err).await.unwrap());
+    assert!(s.delete(job.id).await.unwrap());
+    assert!(!s.delete(job.id).await.unwrap());
+    assert!(s.get(None, job.id).await.unwrap().is_none());
+
+    let failing = s.create(new_job("a", 3)).await.unwrap();
+    s.claim("w", 10_000).await.unwrap().unwrap();
+    assert!(s.fail(failing.id, "w", &err).await.unwrap());
+    let got = s.get(None, failing.id).await.unwrap().unwrap();
+    assert_eq!((got.status, got.error), (JobStatus::Failed, Some(err)));
+    let old = s.finished_before(super_now() + 1000, 10).await.unwrap();
+    assert_eq!(old, vec![failing.id]);
+    assert!(s.finished_before(0, 10).await.unwrap().is_empty());
+}
+
+fn super_now() -> i64 {
+    asbuilt::queue::now_ms()
+}
+
+async fn lists_newest_first_with_pages_and_counts(b: &Backend) {
+    let s = &b.store;
+    let mut ids = vec![];
+    for _ in 0..5 {
+        ids.push(s.create(new_job("a", 3)).await.unwrap().id);
+    }
+    s.create(new_job("b", 3)).await.unwrap();
+    let mut q = ListQuery {
+        tenant: "a".into(),
+        status: None,
+        before: None,
+        limit: 2,
+    };
+    let mut seen = vec![];
+    loop {
+        let page = s.list(&q).await.unwrap();
+        if page.is_empty() {
+            break;
+        }
+        assert!(page.len() <= 2);
+        q.before = Some(page.last().unwrap().id);
+        seen.extend(page.into_iter().map(|j| j.id));
+    }
+    ids.sort();
+    ids.reverse();
+    assert_eq!(seen, ids, "{}", b.name);
+    s.claim("w", 10_000).await.unwrap();
+    q.before = None;
+    q.limit = 10;
+    q.status = Some(JobStatus::Running);
+    assert_eq!(s.list(&q).await.unwrap().len(), 1);
+    let counts = s.counts_by_status().await.unwrap();
+    assert_eq!(counts.len(), JobStatus::ALL.len());
+    assert_eq!(counts[0], (JobStatus::Queued, 5));
+    assert_eq!(counts[1], (JobStatus::Running, 1));
+    assert_eq!(counts[2], (JobStatus::Succeeded, 0));
+}
+
+/// Eight claimers on two independent handles race for 24 jobs: each job is taken exactly once.
+async fn concurrent_claims_take_each_job_once(b: &Backend) {
+    let mut created = BTreeSet::new();
+    for _ in 0..24 {
+        created.insert(b.store.create(new_job("a", 3)).await.unwrap().id);
+    }
+    let other = (b.reopen)().await;
+    let mut tasks = vec![];
+    for w in 0..8 {
+        let store = if w % 2 == 0 {
+            b.store.clone()
+        } else {
+            other.clone()
+        };
+        tasks.push(tokio::spawn(async move {
+            let owner = format!("w{w}");
+            let mut mine = vec![];
+            while let Some(job) = store.claim(&owner, 10_000).await.unwrap() {
+                assert!(store.complete(job.id, &owner, &outcome(1)).await.unwrap());
+                mine.push(job.id);
+            }
+            mine
+        }));
+    }
+    let mut claimed = vec![];
+    for t in tasks {
+        claimed.extend(t.await.unwrap());
+    }
+    assert_eq!(
+        claimed.len(),
+        24,
+        "{}: a job was claimed twice or lost",
+        b.name
+    );
+    assert_eq!(claimed.into_iter().collect::<BTreeSet<_>>(), created);
+}
+
+/// A worker waiting for work wakes soon after another handle queues a job. On PostgreSQL the
+/// wake-up is a notification; elsewhere the wait ends by polling within its timeout.
+async fn idle_workers_wake_when_a_job_is_queued(b: &Backend) {
+    let waiter = b.store.clone();
+    let timeout = Duration::from_secs(2);
+    // The first wait sets up any listener; make sure nothing is pending before measuring.
+    waiter.wait_for_work(Duration::from_millis(50)).await;
+    let start = Instant::now();
+    let waiting = tokio::spawn(async move {
+        waiter.wait_for_work(timeout).await;
+        start.elapsed()
+    });
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let other = (b.reopen)().await;
+    other.create(new_job("a", 3)).await.unwrap();
+    let waited = waiting.await.unwrap();
+    assert!(waited <= timeout + Duration::from_millis(500), "{waited:?}");
+    if b.name == "postgres+s3" {
+        assert!(
+            waited < Duration::from_millis(1500),
+            "LISTEN/NOTIFY did not wake the worker ({waited:?})"
+        );
+    }
+}
+
+async fn schema_is_checked(b: &Backend) {
+    b.store.check_schema().await.unwrap();
+    if let Cleanup::Schema(engines, _) = &b.cleanup {
+        // A schema nobody migrated is refused with the command that fixes it.
+        let empty = engines.new_schema("empty").await;
+        let store = PgJobStore::connect(&engines.url_in(&empty)).await.unwrap();
+        let err = store.check_schema().await.unwrap_err().to_string();
+        assert!(err.contains("asbuilt migrate"), "{err}");
+        store.migrate().await.unwrap();
+        store.migrate().await.unwrap();
+        store.check_schema().await.unwrap();
+        engines.drop_schema(&empty).await;
+    }
+}
+
+/// `n` chunks of `size` bytes with distinct contents.
+fn chunks(n: usize, size: usize) -> (ByteStream<'static>, Vec<u8>) {
+    let all: Vec<u8> = (0..n * size).map(|i| (i * 7 % 251) as u8).collect();
+    let parts: Vec<Bytes> = all.chunks(size).map(Bytes::copy_from_slice).collect();
+    let stream = futures_util::stream::iter(parts.into_iter().map(Ok)).boxed();
+    (stream, all)
+}
+
+fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+async fn read_all(b: &Backend, key: &str) -> Option<Vec<u8>> {
+    let blob = b.blobs.get(key).await.unwrap()?;
+    let size = blob.size;
+    let bytes: Vec<u8> = blob.stream.map(|c| c.unwrap().to_vec()).concat().await;
+    assert_eq!(bytes.len() as u64, size);
+    Some(bytes)
+}
+
+/// 12 MiB in 1 MiB chunks: on S3 that is a real multipart upload of three parts.
+async fn blobs_stream_in_and_out_in_parts(b: &Backend) {
+    b.blobs.ping().await.unwrap();
+    let id = JobId::new();
+    let key = format!("jobs/{id}/input/cloud");
+    let (stream, expected) = chunks(12, 1 << 20);
+    let stored = b.blobs.put_stream(&key, stream, 64 << 20).await.unwrap();
+    assert_eq!(stored.bytes, expected.len() as u64, "{}", b.name);
+    assert_eq!(stored.sha256, sha256_hex(&expected));
+    assert_eq!(read_all(b, &key).await.unwrap(), expected);
+    let dir = tempfile::tempdir().unwrap();
+    let to = dir.path().join("cloud");
+    assert_eq!(
+        b.blobs.download(&key, &to).await.unwrap(),
+        expected.len() as u64
+    );
+    assert_eq!(std::fs::read(&to).unwrap(), expected);
+    assert!(b
+        .blobs
+        .get(&format!("jobs/{id}/nothing"))
+        .await
+        .unwrap()
+        .is_none());
+}
+
+async fn oversized_and_broken_uploads_leave_nothing(b: &Backend) {
+    let key = format!("jobs/{}/input/cloud", JobId::new());
+    let (stream, _) = chunks(8, 1 << 20);
+    let err = b.blobs.put_stream(&key, stream, 6 << 20).await.unwrap_err();
+    assert!(
+        matches!(err, BlobError::TooLarge { .. }),
+        "{}: {err}",
+        b.name
+    );
+    assert!(b.blobs.get(&key).await.unwrap().is_none());
+
+    // The client goes away after 6 MiB: more than one part was already sent on S3.
+    let parts: Vec<Result<Bytes, std::io::Error>> = (0..6)
+        .map(|_| Ok(Bytes::from(vec![1u8; 1 << 20])))
+        .chain([Err(std::io::Error::other("connection reset"))])
+        .collect();
+    let err = b
+        .blobs
+        .put_stream(&key, futures_util::stream::iter(parts).boxed(), 64 << 20)
+        .await
+        .unwrap_err();
+    assert!(matches!(err, BlobError::Source(_)), "{err}");
+    assert!(b.blobs.get(&key).await.unwrap().is_none());
+}
+
+async fn delete_prefix_removes_only_that_job(b: &Backend) {
+    let (a, other) = (JobId::new(), JobId::new());
+    for (id, name) in [
+        (a, "result/plan.svg"),
+        (a, "input/cloud"),
+        (other, "input/cloud"),
+    ] {
+        b.blobs
+            .put(&format!("jobs/{id}/{name}"), Bytes::from_static(b"x"))
+            .await
+            .unwrap();
+    }
+    b.blobs.delete_prefix(&format!("jobs/{a}")).await.unwrap();
+    assert!(b
+        .blobs
+        .get(&format!("jobs/{a}/result/plan.svg"))
+        .await
+        .unwrap()
+        .is_none());
+    assert!(b
+        .blobs
+        .get(&format!("jobs/{a}/input/cloud"))
+        .await
+        .unwrap()
+        .is_none());
+    assert!(b
+        .blobs
+        .get(&format!("jobs/{other}/input/cloud"))
+        .await
+        .unwrap()
+        .is_some());
+    // Deleting nothing is not an error.
+    b.blobs.delete_prefix(&format!("jobs/{a}")).await.unwrap();
+}
+
+/// Readers racing a writer that replaces a result see the old whole object or the new whole
+/// object, never a mix or a prefix.
+async fn results_are_whole_or_absent(b: &Backend) {
+    let key = format!("jobs/{}/result/plan.geojson", JobId::new());
+    let old = Bytes::from(vec![b'a'; 256 << 10]);
+    let new = Bytes::from(vec![b'b'; 512 << 10]);
+    b.blobs.put(&key, old.clone()).await.unwrap();
+    let blobs = b.blobs.clone();
+    let (k2, n2) = (key.clone(), new.clone());
+    let writer = tokio::spawn(async move {
+        for _ in 0..5 {
+            blobs.put(&k2, n2.clone()).await.unwrap();
+        }
+    });
+    for _ in 0..10 {
+        let got = read_all(b, &key)
+            .await
+            .expect("the result exists throughout");
+        assert!(got == old || got == new, "{}: a torn read", b.name);
+    }
+    writer.await.unwrap();
+    assert_eq!(read_all(b, &key).await.unwrap(), new);
+}
+
+/// The local store never presigns; S3 does when asked to, and the URL works without credentials.
+async fn presigned_urls_fetch_the_object_when_configured(b: &Backend) {
+    let key = format!("jobs/{}/result/plan.svg", JobId::new());
+    b.blobs
+        .put(&key, Bytes::from_static(b"<svg/>"))
+        .await
+        .unwrap();
+    assert_eq!(
+        b.blobs.presigned_get(&key).await.unwrap(),
+        None,
+        "{}",
+        b.name
+    );
+    let Cleanup::Schema(engines, _) = &b.cleanup else {
+        return;
+    };
+    let prefix = unique("p");
+    let mut options = engines.s3_options();
+    options.presign = Some(Duration::from_secs(60));
+    let signing = s3::open(&format!("s3://asbuilt-suite/{prefix}"), &options).unwrap();
+    signing
+        .put(&key, Bytes::from_static(b"<svg/>"))
+        .await
+        .unwrap();
+    let url = signing.presigned_get(&key).await.unwrap().expect("a URL");
+    assert!(url.contains("X-Amz-Signature="), "{url}");
+    assert!(
+        url.contains(&prefix),
+        "the URL must include the prefix: {url}"
+    );
+    let body = reqwest::get(&url).await.unwrap();
+    assert_eq!(body.status().as_u16(), 200);
+    assert_eq!(body.text().await.unwrap(), "<svg/>");
+    signing.delete_prefix("jobs").await.unwrap();
+}

@@ -1,0 +1,204 @@
+//! The `asbuilt serve` process: durability across SIGKILL, development mode, `migrate`.
+
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use serde_json::Value;
+
+/// A server process and the address it printed.
+struct Proc {
+    child: Child,
+    base: String,
+    /// Log lines before the listening line.
+    early: Vec<String>,
+}
+
+fn serve(data: &Path, extra: &[&str]) -> Proc {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_asbuilt"));
+    cmd.arg("serve").arg("--data-dir").arg(data).args(extra);
+    if !extra.contains(&"--listen") {
+        cmd.args(["--listen", "127.0.0.1:0"]);
+    }
+    let mut child = cmd
+        .env("ASBUILT_LOG", "info")
+        .env_remove("ASBUILT_API_KEYS")
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .unwrap();
+    let (tx, rx) = mpsc::channel();
+    let stderr = child.stderr.take().unwrap();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let end = Instant::now() + Duration::from_secs(30);
+    let mut seen = vec![];
+    let base = loop {
+        let line = rx
+            .recv_timeout(end.saturating_duration_since(Instant::now()))
+            .unwrap_or_else(|_| panic!("no listening line; log: {seen:#?}"));
+        if let Some(at) = line.find("listening on ") {
+            break line[at + "listening on ".len()..].trim().to_string();
+        }
+        seen.push(line);
+    };
+    // Keep draining the log so the pipe never fills.
+    std::thread::spawn(move || while rx.recv().is_ok() {});
+    Proc {
+        child,
+        base,
+        early: seen,
+    }
+}
+
+fn get(url: &str) -> Value {
+    reqwest::blocking_get(url)
+}
+
+mod reqwest {
+    //! A tiny blocking client over the async one, for these process tests.
+    pub fn blocking_get(url: &str) -> serde_json::Value {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        rt.block_on(async { ::reqwest::get(url).await.unwrap().json().await.unwrap() })
+    }
+
+    pub fn blocking_post(url: &str, body: String) -> serde_json::Value {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        rt.block_on(async {
+            let res = ::reqwest::Client::new()
+                .post(url)
+                .body(body)
+                .send()
+                .await
+                .unwrap();
+            assert_eq!(res.status(), 202);
+            res.json().await.unwrap()
+        })
+    }
+}
+
+fn statuses(base: &str) -> Vec<String> {
+    let page = get(&format!("{base}/v1/jobs?limit=100"));
+    page["jobs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|j| j["status"].as_str().unwrap().to_string())
+        .collect()
+}
+
+#[test]
+fn queued_jobs_survive_sigkill_and_run_exactly_once() {
+    let dir = tempfile::tempdir().unwrap();
+    // Seven stages of 250 ms: each job runs ~1.75 s; two workers; 2 s leases.
+    let args = [
+        "--workers",
+        "2",
+        "--lease",
+        "2",
+        "--fake-pipeline-ms",
+        "250",
+    ];
+    let mut first = serve(dir.path(), &args);
+    let mut ids = vec![];
+    for i in 0..5 {
+        let job = reqwest::blocking_post(
+            &format!("{}/v1/jobs", first.base),
+            format!("{i} 0 0\n1 1 1\n2 2 2\n"),
+        );
+        ids.push(job["id"].as_str().unwrap().to_string());
+    }
+    // Kill while work is in flight: some jobs done, some running, some queued.
+    let end = Instant::now() + Duration::from_secs(30);
+    loop {
+        let s = statuses(&first.base);
+        if s.iter().any(|x| x == "succeeded") && s.iter().any(|x| x == "running") {
+            break;
+        }
+        assert!(Instant::now() < end, "no progress: {s:?}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    first.child.kill().unwrap(); // SIGKILL
+    first.child.wait().unwrap();
+
+    let mut second = serve(dir.path(), &args);
+    let end = Instant::now() + Duration::from_secs(60);
+    loop {
+        let s = statuses(&second.base);
+        if s.len() == 5 && s.iter().all(|x| x == "succeeded") {
+            break;
+        }
+        assert!(!s.iter().any(|x| x == "failed"), "{s:?}");
+        assert!(Instant::now() < end, "not all succeeded: {s:?}");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    second.child.kill().unwrap();
+    second.child.wait().unwrap();
+    let log = std::fs::read_to_string(dir.path().join("fake-completions.log")).unwrap();
+    let mut done: Vec<&str> = log.lines().collect();
+    done.sort();
+    let mut expected: Vec<&str> = ids.iter().map(String::as_str).collect();
+    expected.sort();
+    assert_eq!(done, expected, "every job ran to completion exactly once");
+}
+
+#[test]
+fn without_keys_it_binds_loopback_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut p = serve(dir.path(), &["--listen", "0.0.0.0:0", "--workers", "0"]);
+    assert!(p.base.starts_with("http://127.0.0.1:"), "{}", p.base);
+    assert_eq!(get(&format!("{}/healthz", p.base))["status"], "ok");
+    p.child.kill().unwrap();
+    p.child.wait().unwrap();
+    let log = p.early.join("\n");
+    assert!(
+        log.contains("development mode binds to loopback only"),
+        "{log}"
+    );
+}
+
+#[test]
+fn migrate_creates_the_database_and_is_idempotent() {
+    let dir = tempfile::tempdir().unwrap();
+    for _ in 0..2 {
+        let out = Command::new(env!("CARGO_BIN_EXE_asbuilt"))
+            .args(["migrate", "--data-dir"])
+            .arg(dir.path())
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(String::from_utf8_lossy(&out.stderr).contains("migrated"));
+    }
+    assert!(dir.path().join("asbuilt.db").is_file());
+}
+
+#[test]
+fn bad_settings_are_refused_naming_the_setting() {
+    let out = Command::new(env!("CARGO_BIN_EXE_asbuilt"))
+        .args(["serve", "--api-key", "acme:short", "--data-dir"])
+        .arg(tempfile::tempdir().unwrap().path())
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("api key `acme`"), "{err}");
+    assert!(
+        !err.contains("short"),
+        "the key itself is not echoed: {err}"
+    );
+}
