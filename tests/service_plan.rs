@@ -16,7 +16,14 @@ use serde_json::Value;
 /// Simulates the office building into `dir`: `cloud.ply` and `poses.json`.
 fn simulate(dir: &Path) {
     let out = Command::new(env!("CARGO_BIN_EXE_asbuilt"))
-        .args(["simulate", "--building", "office", "--out"])
+        .args([
+            "simulate",
+            "--building",
+            "office_3story",
+            "--points",
+            "600000",
+            "--out",
+        ])
         .arg(dir)
         .output()
         .unwrap();

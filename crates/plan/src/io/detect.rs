@@ -88,11 +88,31 @@ pub fn detect(head: &[u8]) -> Result<Format, String> {
             shown.join(" ")
         ));
     }
+    if !has_point_row(head) {
+        return Err("text without a row of x y z numbers in its first lines".into());
+    }
     Ok(if starts_with_count_line(head) {
         Format::Pts
     } else {
         Format::Xyz
     })
+}
+
+/// Point text has a row of at least three numbers among its first few lines (after an
+/// optional header or count line), so prose, STL or JSON is not mistaken for a cloud.
+fn has_point_row(head: &[u8]) -> bool {
+    let text = String::from_utf8_lossy(head);
+    text.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .take(4)
+        .any(|l| {
+            let tokens: Vec<&str> = l
+                .split(|c: char| c.is_whitespace() || c == ',' || c == ';')
+                .filter(|t| !t.is_empty())
+                .collect();
+            tokens.len() >= 3 && tokens[..3].iter().all(|t| t.parse::<f64>().is_ok())
+        })
 }
 
 /// Text has no NUL bytes and few control characters; a cut-off UTF-8 sequence at the end is fine.
@@ -146,7 +166,9 @@ mod tests {
             Ok(Format::Pts)
         );
         // A lone number followed by something that is not a point is not a PTS count.
-        assert_eq!(detect(b"2\nhello\n"), Ok(Format::Xyz));
+        assert_eq!(detect(b"2\nhello\n1 2 3\n"), Ok(Format::Xyz));
+        // Text without a row of numbers is no cloud at all.
+        assert!(detect(b"solid cube\nfacet normal 0 0 1\n").is_err());
     }
 
     #[test]

@@ -1,0 +1,61 @@
+//! Simulates one building, plans it and scores the plan against the exact truth.
+//!
+//! Run with `cargo run --release -p asbuilt-plan --example score -- office_3story 1500000 12
+//! [--no-poses] [--registration T,R] [--noise S] [--mobile] [--out DIR]`. With `--out` it writes
+//! `plan.geojson` (with samples) and `truth.json` there, for looking at.
+
+use asbuilt_plan::cloud::Viewpoints;
+use asbuilt_plan::evaluate::{evaluate, EvaluateParams};
+use asbuilt_plan::io::geojson;
+use asbuilt_plan::progress::NoProgress;
+use asbuilt_plan::simulate::{simulate, BuildingKind, ScanOptions};
+use asbuilt_plan::Params;
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let flag = |name: &str| {
+        args.iter()
+            .position(|a| a == name)
+            .map(|i| args[i + 1].clone())
+    };
+    let kind = BuildingKind::from_name(&args[0]).expect("a building name");
+    let mut options = ScanOptions {
+        points: args
+            .get(1)
+            .and_then(|a| a.parse().ok())
+            .unwrap_or(1_000_000),
+        seed: args.get(2).and_then(|a| a.parse().ok()).unwrap_or(1),
+        mobile: args.iter().any(|a| a == "--mobile"),
+        ..Default::default()
+    };
+    let mut params = Params::default();
+    if let Some(r) = flag("--registration") {
+        let v: Vec<f64> = r.split(',').map(|x| x.parse().unwrap()).collect();
+        options.registration = Some((v[0], v[1]));
+        params.smoothing.registration_error = Some(v[0]);
+    }
+    if let Some(n) = flag("--noise") {
+        options.noise = n.parse().unwrap();
+    }
+    let mut sim = simulate(kind, &options).expect("options");
+    if args.iter().any(|a| a == "--no-poses") {
+        sim.cloud.viewpoints = Viewpoints::None;
+        sim.cloud.scan.clear();
+        sim.cloud.scan_ids.clear();
+    }
+    let start = std::time::Instant::now();
+    let plan = asbuilt_plan::plan(&sim.cloud, &params, &mut NoProgress).expect("plan");
+    let ms = start.elapsed().as_millis();
+    let e = evaluate(&plan, &sim.truth, &EvaluateParams::default());
+    print!("{}", e.summary());
+    println!("plan {ms} ms; notes: {:?}", plan.notes);
+    if let Some(dir) = flag("--out") {
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut with_samples = plan.clone();
+        with_samples.parameters["emit_samples"] = true.into();
+        let doc = geojson::to_geojson(&with_samples);
+        std::fs::write(format!("{dir}/plan.geojson"), doc.to_string()).unwrap();
+        let truth = geojson::to_geojson(&sim.truth.to_floor_plan());
+        std::fs::write(format!("{dir}/truth.json"), truth.to_string()).unwrap();
+    }
+}
