@@ -34,6 +34,11 @@ fn main() {
         options.registration = Some((v[0], v[1]));
         params.smoothing.registration_error = Some(v[0]);
     }
+    for (i, a) in args.iter().enumerate() {
+        if a == "--param" {
+            params.set(&args[i + 1]).expect("a parameter");
+        }
+    }
     if let Some(n) = flag("--noise") {
         options.noise = n.parse().unwrap();
     }

@@ -97,6 +97,7 @@ mod tests {
         BoundarySamples {
             pos: (0..n).map(|i| [0.05 * i as f64, 0.0]).collect(),
             normal: vec![None; n],
+            oriented: vec![true; n],
             adj: (0..n)
                 .map(|i| {
                     let mut a = Vec::new();

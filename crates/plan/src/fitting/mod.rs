@@ -97,6 +97,8 @@ pub struct BoundarySamples {
     pub normal: Vec<Option<P2>>,
     /// Neighbours along the boundary rings.
     pub adj: Vec<Vec<u32>>,
+    /// Whether the normal has been turned towards the open side yet.
+    pub oriented: Vec<bool>,
 }
 
 fn check_params(p: &FittingParams) -> Result<(), FittingError> {
@@ -199,6 +201,7 @@ fn collect_samples(
         pos: Vec::new(),
         normal: Vec::new(),
         adj: Vec::new(),
+        oriented: Vec::new(),
     };
     let mut rings: Vec<Vec<usize>> = Vec::new();
     let mut exterior_of: Vec<Option<usize>> = Vec::new();
@@ -222,6 +225,7 @@ fn collect_samples(
                             .normal
                             .push(n.filter(|_| is_sample).and_then(geom::normalize));
                         samples.adj.push(Vec::new());
+                        samples.oriented.push(false);
                         samples.pos.len() - 1
                     })
                 })
@@ -233,11 +237,33 @@ fn collect_samples(
                     samples.adj[b].push(a as u32);
                 }
             }
+            orient_normals(&mut samples, &ids);
             rings.push(ids);
             exterior_of.push((j > 0).then_some(ext));
         }
     }
     (samples, rings, exterior_of)
+}
+
+/// Turns the normals of a ring's samples towards the open side: traced rings keep the inside
+/// on their left, so the left normal of the boundary around each sample points into the room.
+/// A sample already oriented by an earlier ring (a pinch vertex) keeps its sign.
+fn orient_normals(samples: &mut BoundarySamples, ring: &[usize]) {
+    let n = ring.len();
+    for k in 0..n {
+        let (prev, here, next) = (ring[(k + n - 1) % n], ring[k], ring[(k + 1) % n]);
+        if samples.oriented[here] {
+            continue;
+        }
+        let d = geom::sub(samples.pos[next], samples.pos[prev]);
+        let left = [-d[1], d[0]];
+        if let Some(normal) = samples.normal[here].as_mut() {
+            if geom::dot(*normal, left) < 0.0 {
+                *normal = geom::scale(*normal, -1.0);
+            }
+        }
+        samples.oriented[here] = true;
+    }
 }
 
 /// Rebuilds every ring and, while the result is invalid, undoes the models of the pieces

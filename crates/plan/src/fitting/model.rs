@@ -38,10 +38,27 @@ impl Model {
     }
 
     /// True when `p` (with unit normal `n`, if known) is an inlier: within `max_dist` of the
-    /// model and with a normal within `min_cos` (a cosine) of the model's, either sign (§3.5).
-    pub fn accepts(&self, p: P2, n: Option<P2>, max_dist: f64, min_cos: f64) -> bool {
+    /// model and with a normal within `min_cos` (a cosine) of the model's (§3.5). `side` (±1)
+    /// orients the model's normal. Beyond the paper: sample normals point into the open side
+    /// of the boundary, so the two faces of a thin wall, which face opposite ways, never share
+    /// a model, however close they are.
+    pub fn accepts(&self, p: P2, n: Option<P2>, max_dist: f64, min_cos: f64, side: f64) -> bool {
         self.distance(p) <= max_dist
-            && n.is_none_or(|n| geom::dot(n, self.normal_at(p)).abs() >= min_cos)
+            && n.is_none_or(|n| side * geom::dot(n, self.normal_at(p)) >= min_cos)
+    }
+
+    /// The orientation (±1) of the model's normal that most of the oriented normals of
+    /// `points` agree with; +1 when none has a normal.
+    pub fn side_of(&self, points: impl IntoIterator<Item = (P2, Option<P2>)>) -> f64 {
+        let sum: f64 = points
+            .into_iter()
+            .filter_map(|(p, n)| n.map(|n| geom::dot(n, self.normal_at(p))))
+            .sum();
+        if sum < 0.0 {
+            -1.0
+        } else {
+            1.0
+        }
     }
 
     /// Points where two models meet.

@@ -67,11 +67,17 @@ fn inliers_of(
     model: &Model,
     max_dist: f64,
     min_cos: f64,
+    side: f64,
 ) -> Vec<usize> {
     pool.iter()
         .copied()
-        .filter(|&i| model.accepts(samples.pos[i], samples.normal[i], max_dist, min_cos))
+        .filter(|&i| model.accepts(samples.pos[i], samples.normal[i], max_dist, min_cos, side))
         .collect()
+}
+
+/// The side of `model` that the samples `ids` face.
+fn side(samples: &BoundarySamples, model: &Model, ids: &[usize]) -> f64 {
+    model.side_of(ids.iter().map(|&i| (samples.pos[i], samples.normal[i])))
 }
 
 /// MSAC cost: squared distance for inliers, the squared threshold for everything else.
@@ -81,12 +87,13 @@ fn msac_cost(
     model: &Model,
     max_dist: f64,
     min_cos: f64,
+    side: f64,
 ) -> (f64, usize) {
     let mut cost = 0.0;
     let mut count = 0;
     for &i in pool {
         let p = samples.pos[i];
-        if model.accepts(p, samples.normal[i], max_dist, min_cos) {
+        if model.accepts(p, samples.normal[i], max_dist, min_cos, side) {
             cost += model.distance(p).powi(2);
             count += 1;
         } else {
@@ -133,7 +140,7 @@ fn best_model(
     for &i in pool {
         in_pool[i] = true;
     }
-    let mut best: Option<(f64, Model)> = None;
+    let mut best: Option<(f64, Model, f64)> = None;
     let mut needed = params.iterations;
     let mut it = 0;
     while it < needed.min(params.iterations) {
@@ -167,11 +174,12 @@ fn best_model(
             }
         }
         for m in candidates {
-            let (cost, count) = msac_cost(samples, pool, &m, t, min_cos);
-            if count < params.min_inliers || best.as_ref().is_some_and(|(b, _)| cost >= *b) {
+            let side = side(samples, &m, &[a, b, c]);
+            let (cost, count) = msac_cost(samples, pool, &m, t, min_cos, side);
+            if count < params.min_inliers || best.as_ref().is_some_and(|(b, _, _)| cost >= *b) {
                 continue;
             }
-            best = Some((cost, m));
+            best = Some((cost, m, side));
             // Adaptive stopping: the chance that a random first sample lies on this model is
             // about count / pool; stop once a better model would have been seen with 99%.
             let w = count as f64 / pool.len() as f64;
@@ -182,8 +190,8 @@ fn best_model(
             }
         }
     }
-    let (_, model) = best?;
-    refine(samples, params, pool, model, min_cos)
+    let (_, model, side) = best?;
+    refine(samples, params, pool, model, min_cos, side)
 }
 
 /// Least-squares refits on the inliers until the inlier set stops changing (at most 5 times).
@@ -194,19 +202,23 @@ fn refine(
     pool: &[usize],
     model: Model,
     min_cos: f64,
+    side: f64,
 ) -> Option<(Model, Vec<usize>)> {
     let t = params.inlier_distance;
     let mut model = model;
-    let mut inliers = inliers_of(samples, pool, &model, t, min_cos);
+    let mut inliers = inliers_of(samples, pool, &model, t, min_cos, side);
+    // A refit may flip a line's normal: each refit takes its side from the inliers, which
+    // all face one way.
     for _ in 0..5 {
         let pts: Vec<_> = inliers.iter().map(|&i| samples.pos[i]).collect();
         let Some(next) = model.refit(&pts) else { break };
+        let next_side = self::side(samples, &next, &inliers);
         if let Model::Circle(c) = next {
             if c.radius > params.max_radius {
                 break;
             }
         }
-        let next_inliers = inliers_of(samples, pool, &next, t, min_cos);
+        let next_inliers = inliers_of(samples, pool, &next, t, min_cos, next_side);
         if next_inliers.len() < inliers.len() {
             break;
         }
@@ -226,7 +238,8 @@ fn refine(
         .collect();
     if core.len() >= params.min_inliers {
         if let Some(m) = model.refit(&core) {
-            let next = inliers_of(samples, pool, &m, t, min_cos);
+            let m_side = self::side(samples, &m, &inliers);
+            let next = inliers_of(samples, pool, &m, t, min_cos, m_side);
             if next.len() >= params.min_inliers {
                 model = m;
                 inliers = next;
@@ -236,7 +249,8 @@ fn refine(
     if let Model::Circle(_) = model {
         let pts: Vec<_> = inliers.iter().map(|&i| samples.pos[i]).collect();
         if let Some(l) = Line::fit(&pts).map(Model::Line) {
-            let as_line = inliers_of(samples, pool, &l, t, min_cos);
+            let l_side = self::side(samples, &l, &inliers);
+            let as_line = inliers_of(samples, pool, &l, t, min_cos, l_side);
             if as_line.len() >= inliers.len() {
                 model = l;
                 inliers = as_line;
@@ -257,7 +271,35 @@ mod tests {
         let adj = (0..n)
             .map(|i| vec![((i + n - 1) % n) as u32, ((i + 1) % n) as u32])
             .collect();
-        BoundarySamples { pos, normal, adj }
+        let oriented = vec![true; n];
+        BoundarySamples {
+            pos,
+            normal,
+            adj,
+            oriented,
+        }
+    }
+
+    #[test]
+    fn the_two_faces_of_a_thin_wall_get_two_models() {
+        // Faces 2 cm apart, well within the inlier distance, facing away from each other.
+        let mut pos: Vec<P2> = (0..40).map(|i| [0.05 * i as f64, 0.0]).collect();
+        pos.extend((0..40).map(|i| [0.05 * i as f64, 0.02]));
+        let normal = (0..80)
+            .map(|i| Some(if i < 40 { [0.0, -1.0] } else { [0.0, 1.0] }))
+            .collect();
+        let s = loop_samples(pos, normal);
+        let c = find_models(&s, &FittingParams::default());
+        assert_eq!(c.models.len(), 2, "{:?}", c.models);
+        assert!(c.assigned[..40].iter().all(|a| *a == c.assigned[0]));
+        assert!(c.assigned[40..].iter().all(|a| *a == c.assigned[40]));
+        assert_ne!(c.assigned[0], c.assigned[40]);
+        for (m, y) in [(c.assigned[0], 0.0), (c.assigned[40], 0.02)] {
+            let Model::Line(l) = c.models[m.unwrap()] else {
+                panic!("expected lines");
+            };
+            assert!(l.distance([1.0, y]) < 1e-9);
+        }
     }
 
     #[test]

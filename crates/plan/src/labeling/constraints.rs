@@ -5,7 +5,8 @@ use rayon::prelude::*;
 
 use super::mesh::Mesh;
 use super::walk::{locate, segment_triangles};
-use crate::geom::P2;
+use super::LabelingParams;
+use crate::geom::{self, P2};
 use crate::samples::WallSamples;
 
 /// The forced labels and how they came about.
@@ -29,13 +30,14 @@ pub(crate) struct Constraints {
 
 /// Computes the hard constraints for `mesh` from the samples' viewpoints and path.
 /// `min_rays` lines of sight force a triangle inside; each line of sight is the central
-/// `ray_fraction` of its viewpoint→sample segment.
+/// `ray_fraction` of its viewpoint→sample segment, extended back to the viewpoint when
+/// `rays_from_scanner` is set.
 pub(crate) fn hard_constraints(
     mesh: &Mesh,
     samples: &WallSamples,
-    min_rays: u32,
-    ray_fraction: f64,
+    params: &LabelingParams,
 ) -> Constraints {
+    let min_rays = params.min_rays;
     let nt = mesh.triangles.len();
     let mut c = Constraints {
         forced: vec![None; nt],
@@ -86,8 +88,9 @@ pub(crate) fn hard_constraints(
     }
 
     // Lines of sight, counted once per ray and triangle.
-    let f = ray_fraction.clamp(0.0, 1.0);
+    let f = params.ray_fraction.clamp(0.0, 1.0);
     let (lo, hi) = ((1.0 - f) / 2.0, (1.0 + f) / 2.0);
+    let lo = if params.rays_from_scanner { 0.0 } else { lo };
     let (counts, walked, skipped) = samples
         .samples
         .par_iter()
@@ -101,6 +104,10 @@ pub(crate) fn hard_constraints(
                     else {
                         skipped += 1;
                         continue;
+                    };
+                    let hi = match params.ray_end_margin {
+                        Some(m) => hi.max(1.0 - m / geom::dist(a, s.pos).max(1e-9)),
+                        None => hi,
                     };
                     if !finite(s.pos)
                         || !segment_triangles(mesh, *start, a, s.pos, lo, hi, |t| {
@@ -184,7 +191,7 @@ mod tests {
         let ws = room(vec![[2.0, 2.1], [1.1, 1.3]]);
         let pts: Vec<P2> = ws.samples.iter().map(|s| s.pos).collect();
         let mesh = Mesh::build(&pts, &[]).unwrap();
-        let c = hard_constraints(&mesh, &ws, 10, 0.5);
+        let c = hard_constraints(&mesh, &ws, &LabelingParams::default());
         assert_eq!(c.rays, 2 * ws.samples.len());
         assert_eq!(c.rays_skipped, 0);
         assert_eq!(c.inside_poses, 2);
@@ -213,7 +220,7 @@ mod tests {
         ws.path = vec![[0.5, 0.5], [3.5, 3.5], [7.0, 3.5]];
         let pts: Vec<P2> = ws.samples.iter().map(|s| s.pos).collect();
         let mesh = Mesh::build(&pts, &[]).unwrap();
-        let c = hard_constraints(&mesh, &ws, 10, 0.5);
+        let c = hard_constraints(&mesh, &ws, &LabelingParams::default());
         assert!(c.inside_path > 0);
         assert!(
             c.conflicts > 0,

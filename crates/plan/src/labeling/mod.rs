@@ -28,6 +28,16 @@ pub struct LabelingParams {
     pub min_rays: u32,
     /// The central fraction of each pose→sample segment that counts as a line of sight (§3.3: 50%).
     pub ray_fraction: f64,
+    /// Beyond the paper: also count the part of each line of sight between the scanner and the
+    /// central fraction. That part is open air, and without it the thin triangles radiating
+    /// from a scanner are crossed by few counted rays and come out as slits of "outside".
+    pub rays_from_scanner: bool,
+    /// Beyond the paper: when set, each line of sight runs on to this many metres short of its
+    /// sample instead of stopping at the central fraction's far end. A quarter of a 7 m ray is
+    /// 1.75 m of floor that no ray would vouch for, which lets sparse far corners fall outside;
+    /// a fixed margin of a few cells still keeps rays clear of the wall they end on.
+    /// `None` is the paper's central fraction.
+    pub ray_end_margin: Option<f64>,
     /// Use only pole pairs that share an edge as negative edges (reading (b) of the design note).
     pub adjacent_poles_only: bool,
     /// Node count below which the eigenproblem is solved densely (design note §3 suggests ~3000).
@@ -54,6 +64,8 @@ impl Default for LabelingParams {
         LabelingParams {
             min_rays: 10,
             ray_fraction: 0.5,
+            rays_from_scanner: true,
+            ray_end_margin: Some(0.15),
             adjacent_poles_only: false,
             dense_below: 200,
             max_disagreement: 0.02,
@@ -194,7 +206,7 @@ pub fn label_with_report(
     timings.mesh_ms = lap();
     let graph = weights::build_graph(&mesh, params.adjacent_poles_only);
     timings.graph_ms = lap();
-    let cons = constraints::hard_constraints(&mesh, samples, params.min_rays, params.ray_fraction);
+    let cons = constraints::hard_constraints(&mesh, samples, params);
     timings.constraints_ms = lap();
     let nt = mesh.triangles.len();
     let reduced = spectral::Reduced::new(nt, &graph.edges, &cons.forced);
@@ -287,6 +299,14 @@ fn check_params(p: &LabelingParams) -> Result<(), LabelingError> {
             name: "ray_fraction",
             why: format!("{} is not in (0, 1]", p.ray_fraction),
         });
+    }
+    if let Some(m) = p.ray_end_margin {
+        if !(m.is_finite() && m >= 0.0) {
+            return Err(LabelingError::BadParam {
+                name: "ray_end_margin",
+                why: format!("{m} is not a distance of 0 m or more"),
+            });
+        }
     }
     if p.min_rays == 0 {
         return Err(LabelingError::BadParam {

@@ -100,18 +100,23 @@ impl Tests {
 
     /// Bins required non-empty overall and among the top four, for `n` points in the histogram.
     ///
-    /// Beyond the paper (`density_aware_histogram`): n points spread evenly over B bins leave
-    /// each bin empty with probability (1 - 1/B)^n, so a sparse wall fills fewer bins than a
-    /// dense one. The requirements are scaled by the expected filled fraction; from about 45
-    /// points on they equal the paper's 12 and 3.
+    /// Beyond the paper (`density_aware_histogram`): n points spread evenly over B bins fill
+    /// each bin with probability p = 1 - (1 - 1/B)^n, so a sparse wall fills fewer bins than a
+    /// dense one. Each requirement is lowered to the most bins that an even wall of n points
+    /// still fills with probability [`WALL_PASS_RATE`] (bins taken as independent, which
+    /// overstates the spread and so errs towards keeping walls). From about 40 points on the
+    /// requirements are the paper's 12 and 3; at least one top bin is always required, so the
+    /// points must still reach the ceiling.
     pub fn required(&self, n: usize) -> (u32, u32) {
-        let fill = if self.density_aware {
-            1.0 - (1.0 - 1.0 / self.bins as f64).powi(n.min(1 << 20) as i32)
-        } else {
-            1.0
-        };
-        let need = |k: usize| ((k as f64 * fill - 1e-9).ceil().max(1.0)) as u32;
-        (need(self.min_filled), need(self.min_top))
+        if !self.density_aware {
+            return (self.min_filled as u32, self.min_top as u32);
+        }
+        let p = 1.0 - (1.0 - 1.0 / self.bins as f64).powi(n.min(1 << 20) as i32);
+        let top = self.bins.min(4);
+        (
+            likely_filled(self.bins, p, self.min_filled),
+            likely_filled(top, p, self.min_top).max(1),
+        )
     }
 
     /// A bit mask with the bins of the top four set.
@@ -170,6 +175,28 @@ impl Tests {
             confidence,
         })
     }
+}
+
+/// The probability with which an evenly spread wall must pass the filled-bins tests.
+pub(super) const WALL_PASS_RATE: f64 = 0.95;
+
+/// The largest k ≤ `cap` with P(Binomial(`bins`, `p`) ≥ k) ≥ [`WALL_PASS_RATE`].
+fn likely_filled(bins: usize, p: f64, cap: usize) -> u32 {
+    // P(X = j) for j = 0..=bins, then the upper tail from the top down.
+    let mut pmf = vec![0.0f64; bins + 1];
+    let mut choose = 1.0f64;
+    for (j, slot) in pmf.iter_mut().enumerate() {
+        *slot = choose * p.powi(j as i32) * (1.0 - p).powi((bins - j) as i32);
+        choose = choose * (bins - j) as f64 / (j + 1) as f64;
+    }
+    let mut tail = 0.0;
+    for k in (0..=bins).rev() {
+        tail += pmf[k];
+        if tail >= WALL_PASS_RATE {
+            return k.min(cap) as u32;
+        }
+    }
+    0
 }
 
 /// The component-wise median of x and y (the upper median for an even count).
@@ -349,8 +376,15 @@ mod tests {
         assert_eq!(t.required(200), (12, 3));
         assert_eq!(t.required(50), (12, 3));
         let (filled, top) = t.required(20);
-        assert!((8..12).contains(&filled), "{filled}");
-        assert!(top <= 3);
+        assert!((6..12).contains(&filled), "{filled}");
+        assert!((1..3).contains(&top), "{top}");
+        // 13 points: each bin is filled with p = 1 - (15/16)^13 = 0.568; 4 top bins hold at
+        // least 1 with probability 0.966 but at least 2 only with 0.78, so 1 is required.
+        assert_eq!(t.required(13).1, 1);
+        // Binomial(16, 0.568) >= 6 has probability 0.96, >= 7 only 0.91.
+        assert_eq!(t.required(13).0, 6);
+        assert_eq!(likely_filled(4, 1.0, 3), 3);
+        assert_eq!(likely_filled(4, 0.0, 3), 0);
         let paper = Tests {
             density_aware: false,
             ..t

@@ -274,6 +274,17 @@ fn square_room() -> StoryModel {
 }
 
 /// One story of the office. Levels differ in how the south and north wings are partitioned.
+/// Scanner stations for an office room from `x0` to `x1`: one beside the centre (offset by
+/// `dx` so the door is not on its axis), or two at the quarters of a room wider than 10 m.
+fn room_stations(x0: f64, x1: f64, dx: f64, y: f64) -> Vec<P2> {
+    let w = x1 - x0;
+    if w > 10.0 {
+        vec![[x0 + 0.27 * w, y], [x0 + 0.73 * w, y]]
+    } else {
+        vec![[(x0 + x1) / 2.0 + dx, y]]
+    }
+}
+
 fn office_story(level: usize) -> StoryModel {
     const T: f64 = 0.2;
     let floor_z = 3.0 * level as f64;
@@ -293,15 +304,14 @@ fn office_story(level: usize) -> StoryModel {
         Rect::new(8.0, 8.4, 22.0, 11.6),
     ]);
     s.doors.push(Rect::new(14.55, 11.6, 15.45, 11.8));
-    s.stations.extend([
-        [5.0, 7.2],
-        [20.0, 7.2],
-        [10.0, 12.8],
-        [25.0, 12.8],
-        [1.0, 10.0],
-        [29.0, 10.0],
-        [12.5, 10.0],
-    ]);
+    // Stations every 5 m along the long corridors and two in the meeting room, as a surveyor
+    // would place them: a wall seen only at a grazing angle from 10 m away is not captured
+    // (§3.1), and the plan cannot be better than the scan.
+    for x in [5.0, 10.0, 15.0, 20.0, 25.0] {
+        s.stations.extend([[x, 7.2], [x + 0.5, 12.8]]);
+    }
+    s.stations
+        .extend([[1.0, 10.0], [29.0, 10.0], [11.5, 10.0], [18.5, 10.0]]);
     let wing = |parts: &[f64]| {
         let mut edges = vec![0.0];
         edges.extend(parts.iter().flat_map(|&x| [x - T / 2.0, x + T / 2.0]));
@@ -316,7 +326,7 @@ fn office_story(level: usize) -> StoryModel {
         let cx = (x0 + x1) / 2.0;
         s.open.push(Rect::new(x0, 0.0, x1, 6.0));
         s.doors.push(Rect::new(cx - 0.45, 6.0, cx + 0.45, 6.2));
-        s.stations.push([cx - 1.2, 3.4]);
+        s.stations.extend(room_stations(x0, x1, -1.2, 3.4));
         s.tables.push(Rect::new(cx, 2.65, cx + 1.2, 3.35));
         if k == 0 {
             // A square column, seen from a second station as well.
@@ -332,7 +342,7 @@ fn office_story(level: usize) -> StoryModel {
         let cx = (x0 + x1) / 2.0;
         s.open.push(Rect::new(x0, 14.0, x1, 20.0));
         s.doors.push(Rect::new(cx - 0.45, 13.8, cx + 0.45, 14.0));
-        s.stations.push([cx + 1.2, 16.6]);
+        s.stations.extend(room_stations(x0, x1, 1.2, 16.6));
         s.tables.push(Rect::new(cx - 1.2, 16.65, cx, 17.35));
         if k == last {
             s.round_columns.push(([cx + 3.0, 18.0], 0.25));
