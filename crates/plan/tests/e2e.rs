@@ -4,7 +4,10 @@
 //! watertight, the lobby's 10 m arc an arc within 1 %; without poses IoU ≥ 0.95; with
 //! 1 cm / 0.1° registration error and smoothing on, IoU ≥ 0.95 and p95 ≤ 5 cm.
 //!
-//! Point counts stay modest so the file runs in about two minutes in a debug build.
+//! The same bounds hold without poses for the office and the lobby, and with registration
+//! error for the lobby and the L.
+//!
+//! Point counts stay modest so the file runs in well under a minute in a debug build.
 
 use asbuilt_plan::cloud::{PointCloud, Viewpoints};
 use asbuilt_plan::evaluate::{evaluate, EvaluateParams, Evaluation};
@@ -139,6 +142,80 @@ fn rotated_l_without_poses() {
         "without poses IoU >= 0.95\n{}",
         e.summary()
     );
+}
+
+/// The cloud without its scanner poses: inside comes from geometry alone.
+fn without_poses(mut sim: Simulation) -> (PointCloud, Simulation) {
+    let mut cloud = std::mem::take(&mut sim.cloud);
+    cloud.viewpoints = Viewpoints::None;
+    cloud.scan.clear();
+    cloud.scan_ids.clear();
+    (cloud, sim)
+}
+
+#[test]
+fn office_without_poses() {
+    let (cloud, sim) = without_poses(scan(
+        BuildingKind::Office3Story,
+        ScanOptions {
+            points: 1_500_000,
+            seed: 19,
+            ..Default::default()
+        },
+    ));
+    let (plan, e) = plan_and_score(&cloud, &sim, &Params::default());
+    let s = e.summary();
+    assert_eq!(plan.stories.len(), 3, "{s}");
+    assert!(e.all_watertight(), "{s}");
+    assert!(e.max_height_error() <= 0.02, "{s}");
+    assert!(e.min_iou() >= 0.95, "without poses IoU >= 0.95\n{s}");
+}
+
+#[test]
+fn curved_lobby_without_poses_keeps_its_arc() {
+    let (cloud, sim) = without_poses(scan(
+        BuildingKind::CurvedLobby,
+        ScanOptions {
+            points: 600_000,
+            seed: 20,
+            noise: 0.002,
+            ..Default::default()
+        },
+    ));
+    let (_, e) = plan_and_score(&cloud, &sim, &Params::default());
+    let s = e.summary();
+    assert!(e.all_watertight(), "{s}");
+    assert!(e.min_iou() >= 0.95, "without poses IoU >= 0.95\n{s}");
+    assert!(e.worst_arc_error() < 0.02, "arc radius within 2 %\n{s}");
+}
+
+#[test]
+fn lobby_and_l_with_registration_error_and_smoothing() {
+    for (kind, points) in [
+        (BuildingKind::CurvedLobby, 600_000),
+        (BuildingKind::RotatedL, 400_000),
+    ] {
+        let sim = scan(
+            kind,
+            ScanOptions {
+                points,
+                seed: 21,
+                registration: Some((0.01, 0.1)),
+                ..Default::default()
+            },
+        );
+        let mut params = Params::default();
+        params.smoothing.registration_error = Some(0.01);
+        let (_, e) = plan_and_score(&sim.cloud, &sim, &params);
+        let s = e.summary();
+        assert!(e.all_watertight(), "{s}");
+        assert!(e.min_iou() >= 0.95, "registration error: IoU >= 0.95\n{s}");
+        assert!(
+            e.max_boundary_p95() <= 0.05,
+            "registration error: p95 <= 5 cm\n{s}"
+        );
+        assert!(e.worst_arc_error() < 0.02, "{s}");
+    }
 }
 
 #[test]

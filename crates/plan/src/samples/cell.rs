@@ -98,24 +98,29 @@ impl Tests {
             .then(|| ((t * self.bins as f64) as usize).min(self.bins - 1) as u32)
     }
 
-    /// Bins required non-empty overall and among the top four, for `n` points in the histogram.
+    /// Bins required non-empty overall and among the top four, for `n` points in the
+    /// histogram's interior bins (all but the lowest and the highest).
     ///
-    /// Beyond the paper (`density_aware_histogram`): n points spread evenly over B bins fill
-    /// each bin with probability p = 1 - (1 - 1/B)^n, so a sparse wall fills fewer bins than a
-    /// dense one. Each requirement is lowered to the most bins that an even wall of n points
-    /// still fills with probability [`WALL_PASS_RATE`] (bins taken as independent, which
-    /// overstates the spread and so errs towards keeping walls). From about 40 points on the
-    /// requirements are the paper's 12 and 3; at least one top bin is always required, so the
-    /// points must still reach the ceiling.
+    /// Beyond the paper (`density_aware_histogram`): a sparse wall fills fewer bins than a
+    /// dense one. The floor and ceiling put points in the lowest and highest bins of every
+    /// cell, wall or not, so only the interior bins are evidence of a wall: n points spread
+    /// evenly over those B - 2 bins fill each with probability p = 1 - (1 - 1/(B - 2))^n. Each
+    /// requirement, less its floor or ceiling bin, is lowered to the most interior bins that an
+    /// even wall of n points still fills with probability [`WALL_PASS_RATE`] (bins taken as
+    /// independent, which overstates the spread and so errs towards keeping walls). For dense
+    /// walls this is the paper's 12 of 16 and 3 of the top 4 when floor and ceiling are there;
+    /// at least one interior top bin is always required, so the wall reaches the ceiling.
+    /// Returns (interior bins, interior top bins) in that mode, the paper's values otherwise.
     pub fn required(&self, n: usize) -> (u32, u32) {
         if !self.density_aware {
             return (self.min_filled as u32, self.min_top as u32);
         }
-        let p = 1.0 - (1.0 - 1.0 / self.bins as f64).powi(n.min(1 << 20) as i32);
-        let top = self.bins.min(4);
+        let inner = self.bins - 2;
+        let p = 1.0 - (1.0 - 1.0 / inner as f64).powi(n.min(1 << 20) as i32);
+        let top = self.bins.min(4) - 1;
         (
-            likely_filled(self.bins, p, self.min_filled),
-            likely_filled(top, p, self.min_top).max(1),
+            likely_filled(inner, p, self.min_filled.saturating_sub(2)).max(1),
+            likely_filled(top, p, self.min_top.saturating_sub(1)).max(1),
         )
     }
 
@@ -125,9 +130,20 @@ impl Tests {
         (((1u64 << top) - 1) << (self.bins - top)) as u32
     }
 
-    /// Whether a height-bin mask of `n` points passes the filled-bins tests.
+    /// A bit mask with every bin but the lowest and the highest set.
+    pub fn interior_mask(&self) -> u32 {
+        (((1u64 << self.bins) - 1) & !1 & !(1u64 << (self.bins - 1))) as u32
+    }
+
+    /// Whether a height-bin mask passes the filled-bins tests, `n` being the number of points
+    /// in the interior bins.
     pub fn histogram(&self, mask: u32, n: usize) -> Result<(), Reject> {
         let (filled, top) = self.required(n);
+        let mask = if self.density_aware {
+            mask & self.interior_mask()
+        } else {
+            mask
+        };
         if mask.count_ones() < filled {
             Err(Reject::Gappy)
         } else if (mask & self.top_mask()).count_ones() < top {
@@ -155,10 +171,13 @@ impl Tests {
         if ((zmax - zmin) as f64) < self.min_wall_height {
             return Err(Reject::TooShort);
         }
+        let last = self.bins as u32 - 1;
         let (mask, n) = pts
             .iter()
             .filter_map(|p| self.bin_of(p[2]))
-            .fold((0u32, 0usize), |(m, n), b| (m | 1 << b, n + 1));
+            .fold((0u32, 0usize), |(m, n), b| {
+                (m | 1 << b, n + usize::from(b != 0 && b != last))
+            });
         self.histogram(mask, n)?;
         let pos = median_xy(pts);
         let inside = |k: usize| pos[k] >= lo[k] && pos[k] < lo[k] + cell;
@@ -373,22 +392,33 @@ mod tests {
     #[test]
     fn sparse_walls_need_fewer_bins_when_density_aware() {
         let t = tests();
-        assert_eq!(t.required(200), (12, 3));
-        assert_eq!(t.required(50), (12, 3));
+        // Dense: the paper's 12 of 16 and 3 of the top 4, less the floor and ceiling bins.
+        assert_eq!(t.required(200), (10, 2));
+        assert_eq!(t.required(60), (10, 2));
         let (filled, top) = t.required(20);
-        assert!((6..12).contains(&filled), "{filled}");
-        assert!((1..3).contains(&top), "{top}");
-        // 13 points: each bin is filled with p = 1 - (15/16)^13 = 0.568; 4 top bins hold at
-        // least 1 with probability 0.966 but at least 2 only with 0.78, so 1 is required.
-        assert_eq!(t.required(13).1, 1);
-        // Binomial(16, 0.568) >= 6 has probability 0.96, >= 7 only 0.91.
+        assert!((5..10).contains(&filled), "{filled}");
+        assert!((1..=2).contains(&top), "{top}");
+        // 13 points over 14 interior bins: each is filled with p = 1 - (13/14)^13 = 0.618;
+        // Binomial(14, 0.618) >= 6 has probability 0.957, >= 7 only 0.881.
         assert_eq!(t.required(13).0, 6);
+        // The 3 interior top bins hold at least 1 only with probability 0.944, but at
+        // least one interior top bin is always required.
+        assert_eq!(t.required(13).1, 1);
         assert_eq!(likely_filled(4, 1.0, 3), 3);
         assert_eq!(likely_filled(4, 0.0, 3), 0);
         let paper = Tests {
             density_aware: false,
-            ..t
+            ..t.clone()
         };
         assert_eq!(paper.required(20), (12, 3));
+        // A table edge: floor, table sides and top up to 0.75 m, and the ceiling. The floor
+        // and ceiling bins do not count as wall, and nothing reaches the top interior bins.
+        let table = 0b1000_0000_0001_1111u32;
+        assert_eq!(t.histogram(table, 8), Err(Reject::NoTop));
+        // The paper's test counts floor and ceiling: 6 bins, too few either way.
+        assert_eq!(paper.histogram(table, 8), Err(Reject::Gappy));
+        // A sparse wall: 13 interior points in 8 interior bins, two of them near the ceiling.
+        let wall = 0b1110_0101_1010_1101u32;
+        assert_eq!(t.histogram(wall, 13), Ok(()));
     }
 }
