@@ -1,7 +1,7 @@
 //! Draws one story's stages as SVG, for looking at what the labeling did.
 //!
 //! Run with `cargo run --release -p asbuilt-plan --example render_stages -- BUILDING POINTS SEED
-//! LEVEL OUT_DIR [--no-poses]`. It writes `labels.svg` (after labeling), `cleaned.svg` (after
+//! LEVEL OUT_DIR [--no-poses] [--mobile] [--view X0,Y0,X1,Y1]`. It writes `labels.svg` (after labeling), `cleaned.svg` (after
 //! cleanup) and `fitted.svg` (the final polygons over the cleaned labels, truth in red).
 //! Triangles: inside light blue, outside white, forced inside dark blue, forced outside grey.
 
@@ -23,6 +23,7 @@ fn main() {
     let options = ScanOptions {
         points: args[1].parse().unwrap(),
         seed: args[2].parse().unwrap(),
+        mobile: args.iter().any(|a| a == "--mobile"),
         ..Default::default()
     };
     let level: usize = args[3].parse().unwrap();

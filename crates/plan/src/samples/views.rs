@@ -10,9 +10,16 @@ use crate::cloud::{PointCloud, TrajectorySample, Viewpoints};
 use crate::geom::{dist, dot, sub, P2};
 use crate::stories::Story;
 
-/// Spacing of the viewpoints listed along a mobile trajectory, metres. Closer positions add
-/// lines of sight that say nothing new.
-pub(super) const TRAJECTORY_SPACING: f64 = 0.5;
+/// Spacing of the viewpoints listed along a mobile trajectory, metres. A point's line of sight
+/// starts at the listed viewpoint nearest in time, up to half this from where the scanner
+/// really was. Rays grazing a column are that sensitive: from 5 cm along the path, rays that
+/// passed a 30 cm column in the scan cut through it in the triangulation and filled it in.
+pub(super) const TRAJECTORY_SPACING: f64 = 0.01;
+
+/// At most this many viewpoints are kept per sample, evenly spread over those that saw it: a
+/// mobile scanner sees a wall cell from dozens of listed positions, and more lines of sight
+/// from nearly the same place add walking time, not evidence.
+pub(super) const MAX_SEEN_FROM: usize = 16;
 
 /// The scanner positions of one story, and how to find each point's viewer.
 pub(super) struct Views<'a> {
@@ -92,16 +99,7 @@ impl<'a> Views<'a> {
                     .iter()
                     .map(|s| [s.position[0], s.position[1]])
                     .collect();
-                let (mut viewpoints, mut listed_t) = (Vec::<P2>::new(), Vec::new());
-                for (s, p) in inside.iter().zip(&path) {
-                    if viewpoints
-                        .last()
-                        .is_none_or(|&last| dist(last, *p) >= TRAJECTORY_SPACING)
-                    {
-                        viewpoints.push(*p);
-                        listed_t.push(s.t);
-                    }
-                }
+                let (viewpoints, listed_t) = list_along(&inside, TRAJECTORY_SPACING);
                 let kind = Kind::Trajectory {
                     time: &cloud.time,
                     traj,
@@ -172,6 +170,12 @@ impl<'a> Views<'a> {
         }
         seen_from.sort_unstable();
         seen_from.dedup();
+        if seen_from.len() > MAX_SEEN_FROM {
+            let n = seen_from.len();
+            seen_from = (0..MAX_SEEN_FROM)
+                .map(|k| seen_from[k * n / MAX_SEEN_FROM])
+                .collect();
+        }
         let flip = votes < 0 || (votes == 0 && nearest.is_some_and(|(_, side)| side < 0.0));
         Seen {
             normal: if flip {
@@ -183,6 +187,37 @@ impl<'a> Views<'a> {
             nearest: nearest.map(|(d, _)| d),
         }
     }
+}
+
+/// Positions every `spacing` metres along the time-ordered trajectory samples, interpolated
+/// between them, with their times: the first sample, then one each time the path has run
+/// `spacing` further.
+fn list_along(samples: &[&TrajectorySample], spacing: f64) -> (Vec<P2>, Vec<f64>) {
+    let (mut points, mut times) = (Vec::new(), Vec::new());
+    let Some(first) = samples.first() else {
+        return (points, times);
+    };
+    let xy = |s: &TrajectorySample| [s.position[0], s.position[1]];
+    points.push(xy(first));
+    times.push(first.t);
+    // Path length run so far, and where the next listed position falls.
+    let (mut run, mut k) = (0.0, 1u64);
+    for w in samples.windows(2) {
+        let (a, b) = (xy(w[0]), xy(w[1]));
+        let len = dist(a, b);
+        if !len.is_finite() {
+            continue;
+        }
+        // Multiples of the spacing, not a running sum, so rounding does not drift.
+        while k as f64 * spacing <= run + len + 1e-9 {
+            let f = ((k as f64 * spacing - run) / len).clamp(0.0, 1.0);
+            points.push([a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])]);
+            times.push(w[0].t + f * (w[1].t - w[0].t));
+            k += 1;
+        }
+        run += len;
+    }
+    (points, times)
 }
 
 /// The trajectory's x, y at time `t`, interpolated linearly and clamped to its ends.
@@ -289,11 +324,18 @@ mod tests {
         };
         let views = Views::new(&cloud, &story());
         assert_eq!(views.path.len(), 11);
-        // Every 0.5 m: x = 0, 0.5, 1.
-        assert_eq!(views.viewpoints.len(), 3, "{:?}", views.viewpoints);
+        // Every centimetre along the 1 m path, interpolated between the samples.
+        assert_eq!(views.viewpoints.len(), 101, "{:?}", views.viewpoints.len());
+        for (k, v) in views.viewpoints.iter().enumerate() {
+            assert!(
+                (v[0] - 0.01 * k as f64).abs() < 1e-9 && v[1] == -1.0,
+                "{k}: {v:?}"
+            );
+        }
         let seen = views.observe(&[0, 1], [0.25, 0.0], [0.0, 1.0]);
         assert_eq!(seen.normal, [0.0, -1.0]);
-        assert_eq!(seen.seen_from, vec![0, 2]);
+        // t = 2.5 is where the scanner stood at x = 0.25; t = 9 at x = 0.9.
+        assert_eq!(seen.seen_from, vec![25, 90]);
         assert!((seen.nearest.unwrap() - 1.0).abs() < 1e-12);
     }
 

@@ -424,13 +424,14 @@ fn curved_lobby() -> StoryModel {
             [-5.0, 6.0],
             [5.0, 6.0],
         ],
+        // South of the square column, not through it.
         route: vec![
-            [-7.0, -3.0],
-            [7.0, -3.0],
+            [-7.0, -4.5],
+            [7.0, -4.5],
             [7.0, 4.0],
             [0.0, 8.5],
             [-7.0, 4.0],
-            [-7.0, -3.0],
+            [-7.0, -4.5],
         ],
         truth: TruthStory {
             level: 0,
@@ -507,6 +508,44 @@ mod tests {
             assert!((s.ceiling_z - s.floor_z - 2.7).abs() < 1e-12);
             for st in &s.stations {
                 assert!(point_in_ring(*st, &s.truth.polygons[0].exterior));
+            }
+        }
+    }
+
+    #[test]
+    fn every_route_and_station_keeps_clear_of_walls_and_columns() {
+        // A scanner cannot walk through a column: every point of every route, and every
+        // station, lies in the open floor at least 20 cm from any wall.
+        for (name, kind) in BuildingKind::ALL {
+            for s in &kind.build().stories {
+                let mut points = s.stations.clone();
+                for w in s.route.windows(2) {
+                    let n = (crate::geom::dist(w[0], w[1]) / 0.05).ceil() as usize;
+                    points.extend((0..=n).map(|k| {
+                        let f = k as f64 / n.max(1) as f64;
+                        [
+                            w[0][0] + f * (w[1][0] - w[0][0]),
+                            w[0][1] + f * (w[1][1] - w[0][1]),
+                        ]
+                    }));
+                }
+                for p in points {
+                    let open = s.truth.polygons.iter().any(|poly| {
+                        point_in_ring(p, &poly.exterior)
+                            && !poly.holes.iter().any(|h| point_in_ring(p, h))
+                    });
+                    assert!(
+                        open,
+                        "{name} level {}: {p:?} is not open floor",
+                        s.truth.level
+                    );
+                    let clear = s.truth.walls.iter().all(|w| w.distance(p) >= 0.2);
+                    assert!(
+                        clear,
+                        "{name} level {}: {p:?} touches a wall",
+                        s.truth.level
+                    );
+                }
             }
         }
     }
