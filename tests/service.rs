@@ -1524,3 +1524,33 @@ async fn every_answer_matches_the_document() {
     let put = s.client.put(s.url("/v1/jobs"));
     assert_eq!(call(&mut contract, "PUT", "/v1/jobs", put).await.0, 405);
 }
+
+/// Shutdown does not wait forever on a client that stalls mid-upload: open connections get
+/// the shutdown timeout too, then are closed.
+#[tokio::test]
+async fn shutdown_does_not_wait_for_a_stalled_upload() {
+    use tokio::io::AsyncWriteExt;
+    let mut s = start(fake(1), |c| {
+        c.workers = 1;
+        c.shutdown_timeout_secs = 1;
+    })
+    .await;
+    let addr = s.base.trim_start_matches("http://").to_string();
+    let mut tcp = tokio::net::TcpStream::connect(&addr).await.unwrap();
+    tcp.write_all(
+        b"POST /v1/jobs HTTP/1.1\r\nHost: test\r\nContent-Length: 1000000\r\n\r\n1 2 3\n",
+    )
+    .await
+    .unwrap();
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let t0 = Instant::now();
+    tokio::time::timeout(Duration::from_secs(10), s.stop())
+        .await
+        .expect("shutdown hung on the stalled upload");
+    assert!(t0.elapsed() < Duration::from_secs(4), "{:?}", t0.elapsed());
+    assert!(
+        files_under(&s.blobs()).is_empty(),
+        "the partial upload was kept"
+    );
+    drop(tcp);
+}
