@@ -283,7 +283,10 @@ fn compose_runs_postgres_minio_one_api_and_n_workers() {
         let timeout: u64 = get("ASBUILT_SHUTDOWN_TIMEOUT").unwrap().parse().unwrap();
         let grace = services[name]["stop_grace_period"].as_str().unwrap();
         let grace: u64 = grace.trim_end_matches('s').parse().unwrap();
-        assert!(grace >= timeout + 5, "{name}: grace {grace} s, timeout {timeout} s");
+        assert!(
+            grace >= timeout + 5,
+            "{name}: grace {grace} s, timeout {timeout} s"
+        );
     }
 
     // Named volumes keep the database and the objects; each is declared.
@@ -498,16 +501,18 @@ fn api_and_worker_deployments_run_their_roles_with_sized_resources() {
     // On SIGTERM a process gets the shutdown timeout to drain connections and hand jobs back;
     // the kubelet must not SIGKILL it before then.
     let config = resource(&all, "ConfigMap", "asbuilt");
-    let timeout = config["data"]["ASBUILT_SHUTDOWN_TIMEOUT"]
-        .as_str()
-        .map_or(asbuilt::config::Config::default().shutdown_timeout_secs, |t| {
-            t.parse().unwrap()
-        }) as i64;
+    let timeout = config["data"]["ASBUILT_SHUTDOWN_TIMEOUT"].as_str().map_or(
+        asbuilt::config::Config::default().shutdown_timeout_secs,
+        |t| t.parse().unwrap(),
+    ) as i64;
     for d in [api, worker] {
         let grace = d["spec"]["template"]["spec"]["terminationGracePeriodSeconds"]
             .as_i64()
             .unwrap();
-        assert!(grace > timeout + 5, "grace {grace} s, shutdown timeout {timeout} s");
+        assert!(
+            grace > timeout + 5,
+            "grace {grace} s, shutdown timeout {timeout} s"
+        );
     }
 }
 
