@@ -498,9 +498,21 @@ fn api_and_worker_deployments_run_their_roles_with_sized_resources() {
         mem_bytes(&w["resources"]["limits"]["memory"])
             > mem_bytes(&api_c["resources"]["limits"]["memory"])
     );
+    // The worker's memory limit holds the largest cloud allowed, at the measured peak of about
+    // 22 bytes a point (deploy/README.md, Sizing), with a margin.
+    let config = resource(&all, "ConfigMap", "asbuilt");
+    let max_points: u64 = config["data"]["ASBUILT_MAX_POINTS"]
+        .as_str()
+        .expect("the ConfigMap sets ASBUILT_MAX_POINTS")
+        .parse()
+        .unwrap();
+    let limit = mem_bytes(&w["resources"]["limits"]["memory"]);
+    assert!(
+        limit >= max_points * 24 + (64 << 20),
+        "{limit} B for {max_points} points"
+    );
     // On SIGTERM a process gets the shutdown timeout to drain connections and hand jobs back;
     // the kubelet must not SIGKILL it before then.
-    let config = resource(&all, "ConfigMap", "asbuilt");
     let timeout = config["data"]["ASBUILT_SHUTDOWN_TIMEOUT"].as_str().map_or(
         asbuilt::config::Config::default().shutdown_timeout_secs,
         |t| t.parse().unwrap(),
