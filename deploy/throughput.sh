@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
 # Jobs per minute with 1, 2 and 4 worker processes sharing PostgreSQL and S3, on one cloud.
+# The jobs are queued first; the clock runs from starting the workers (each process starting,
+# checking the schema and claiming counts) until the last job finishes.
 #
 #   deploy/throughput.sh CLOUD [JOBS] [WORKER_COUNTS...]
 #   deploy/throughput.sh /tmp/office/cloud.ply 12 1 2 4
@@ -7,6 +9,7 @@
 # Needs ASBUILT_TEST_POSTGRES and ASBUILT_TEST_S3_ENDPOINT (source .ci/backends.sh) and a built
 # binary (ASBUILT_BIN, default target/release/asbuilt). Extra flags for every process, such as
 # `--fake-pipeline-ms 100 --fake-pipeline-spin` to time the queue alone, go in ASBUILT_FLAGS.
+# POSES=FILE sends that pose sidecar with each cloud (multipart).
 # Each run uses its own schema and prefix and removes them afterwards. Loopback only.
 set -euo pipefail
 
@@ -52,17 +55,25 @@ for n in "${counts[@]}"; do
     "$bin" serve --no-workers --listen 127.0.0.1:18181 --data-dir "$work/api" "${common[@]}" \
         2>"$work/api.log" &
     pids=($!)
+    wait_ready 18181
+
+    # Queue every job first, so the timing below is the workers' alone (claim, download,
+    # pipeline, results), not the uploads'.
+    up_start=$(date +%s.%N)
+    for _ in $(seq 1 "$jobs"); do
+        if [ -n "${POSES:-}" ]; then
+            curl -sf -o /dev/null -F "cloud=@$cloud" -F "poses=@$POSES" http://127.0.0.1:18181/v1/jobs
+        else
+            curl -sf -o /dev/null -X POST -T "$cloud" http://127.0.0.1:18181/v1/jobs
+        fi
+    done
+    up_end=$(date +%s.%N)
+
+    start=$(date +%s.%N)
     for i in $(seq 1 "$n"); do
         "$bin" worker --listen "127.0.0.1:$((18190 + i))" --data-dir "$work/w$i" "${common[@]}" \
             2>"$work/w$i.log" &
         pids+=($!)
-    done
-    wait_ready 18181
-    for i in $(seq 1 "$n"); do wait_ready $((18190 + i)); done
-
-    start=$(date +%s.%N)
-    for _ in $(seq 1 "$jobs"); do
-        curl -sf -o /dev/null -X POST --data-binary "@$cloud" http://127.0.0.1:18181/v1/jobs
     done
     while :; do
         done_=$(psql "$pg" -tAc "SELECT count(*) FROM $schema.jobs WHERE status IN ('succeeded','failed')")
@@ -71,8 +82,8 @@ for n in "${counts[@]}"; do
     done
     end=$(date +%s.%N)
     failed=$(psql "$pg" -tAc "SELECT count(*) FROM $schema.jobs WHERE status = 'failed'")
-    awk -v n="$n" -v j="$jobs" -v s="$start" -v e="$end" -v f="$failed" \
-        'BEGIN { printf "%d worker(s): %d jobs in %.1f s = %.1f jobs/min (%d failed)\n", n, j, e - s, 60 * j / (e - s), f }'
+    awk -v n="$n" -v j="$jobs" -v s="$start" -v e="$end" -v f="$failed" -v us="$up_start" -v ue="$up_end" \
+        'BEGIN { printf "%d worker(s): %d jobs in %.1f s = %.1f jobs/min (%d failed); queueing them took %.1f s\n", n, j, e - s, 60 * j / (e - s), f, ue - us }'
 
     # Deleting through the API removes each job's objects too.
     for id in $(psql "$pg" -tAc "SELECT id FROM $schema.jobs"); do

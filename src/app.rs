@@ -198,15 +198,26 @@ pub async fn start(mut config: Config, pipeline: Arc<dyn Pipeline>) -> anyhow::R
     let signal = shutdown.clone();
     let task = tokio::spawn(async move {
         let stop = server_state.shutdown.clone();
-        let serve = axum::serve(listener, app).with_graceful_shutdown(async move {
-            tokio::select! {
-                _ = signal.cancelled() => {}
-                _ = termination() => {}
-            }
-            tracing::info!("shutting down: no new jobs or connections");
-            stop.cancel();
+        let graceful = stop.clone();
+        let mut server = tokio::spawn(async move {
+            axum::serve(listener, app)
+                .with_graceful_shutdown(async move {
+                    tokio::select! {
+                        _ = signal.cancelled() => {}
+                        _ = termination() => {}
+                    }
+                    tracing::info!("shutting down: no new jobs or connections");
+                    graceful.cancel();
+                })
+                .await
         });
-        let result = serve.await;
+        let mut ended = None;
+        tokio::select! {
+            _ = stop.cancelled() => {}
+            r = &mut server => ended = Some(r),
+        }
+        // Open connections and running jobs share one deadline: a stalled upload cannot hold
+        // the jobs past it, nor the jobs the connections.
         workers.stop_claiming.cancel();
         let deadline = tokio::time::Instant::now()
             + Duration::from_secs(server_state.config.shutdown_timeout_secs);
@@ -223,10 +234,22 @@ pub async fn start(mut config: Config, pipeline: Arc<dyn Pipeline>) -> anyhow::R
                 let _ = task.await;
             }
         }
+        let result = match ended {
+            Some(r) => r,
+            None => match tokio::time::timeout_at(deadline, &mut server).await {
+                Ok(r) => r,
+                Err(_) => {
+                    tracing::warn!("shutdown timeout: closing the connections still open");
+                    server.abort();
+                    let _ = server.await;
+                    Ok(Ok(()))
+                }
+            },
+        };
         sweeper_stop.cancel();
         let _ = sweeper.await;
         tracing::info!("stopped");
-        result.context("serving HTTP")
+        result.context("server task")?.context("serving HTTP")
     });
     Ok(Running {
         addr,

@@ -116,6 +116,18 @@ pub const JOB_CODES: &[(&str, &str)] = &[
     ),
 ];
 
+/// Messages and parameter names echo what the client sent; past these many characters they are
+/// cut, so a hostile request cannot make its answer huge.
+const MAX_MESSAGE: usize = 1000;
+const MAX_PARAM: usize = 200;
+
+fn clip(text: String, max: usize) -> String {
+    match text.char_indices().nth(max) {
+        Some((at, _)) => format!("{}…", &text[..at]),
+        None => text,
+    }
+}
+
 /// An error answered to a request.
 #[derive(Debug)]
 pub struct ApiError {
@@ -151,7 +163,7 @@ impl ApiError {
         ApiError {
             status,
             code,
-            message: message.into(),
+            message: clip(message.into(), MAX_MESSAGE),
             param: None,
         }
     }
@@ -159,7 +171,7 @@ impl ApiError {
     /// `invalid_parameter`, naming the parameter.
     pub fn param(name: impl Into<String>, message: impl Into<String>) -> ApiError {
         let mut e = ApiError::new("invalid_parameter", message);
-        e.param = Some(name.into());
+        e.param = Some(clip(name.into(), MAX_PARAM));
         e
     }
 
@@ -213,5 +225,9 @@ mod tests {
         }
         assert_eq!(ApiError::new("payload_too_large", "x").status, 413);
         assert_eq!(ApiError::param("samples.cell_size", "x").status, 422);
+        let long = ApiError::param("k".repeat(10_000), "m".repeat(10_000));
+        assert_eq!(long.param.unwrap().chars().count(), MAX_PARAM + 1);
+        assert_eq!(long.message.chars().count(), MAX_MESSAGE + 1);
+        assert_eq!(clip("é".repeat(3), 2), "éé…");
     }
 }

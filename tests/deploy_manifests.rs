@@ -279,6 +279,14 @@ fn compose_runs_postgres_minio_one_api_and_n_workers() {
         assert_eq!(get("ASBUILT_STORAGE"), Some("s3://asbuilt/jobs"));
         assert_eq!(get("AWS_ENDPOINT"), Some("http://minio:9000"));
         assert!(get("ASBUILT_LISTEN").is_some(), "{name} has no health port");
+        // Docker's SIGKILL must come after the process's own shutdown timeout.
+        let timeout: u64 = get("ASBUILT_SHUTDOWN_TIMEOUT").unwrap().parse().unwrap();
+        let grace = services[name]["stop_grace_period"].as_str().unwrap();
+        let grace: u64 = grace.trim_end_matches('s').parse().unwrap();
+        assert!(
+            grace >= timeout + 5,
+            "{name}: grace {grace} s, timeout {timeout} s"
+        );
     }
 
     // Named volumes keep the database and the objects; each is declared.
@@ -490,11 +498,34 @@ fn api_and_worker_deployments_run_their_roles_with_sized_resources() {
         mem_bytes(&w["resources"]["limits"]["memory"])
             > mem_bytes(&api_c["resources"]["limits"]["memory"])
     );
-    // Workers need time to hand an unfinished job back on SIGTERM.
-    let grace = worker["spec"]["template"]["spec"]["terminationGracePeriodSeconds"]
-        .as_i64()
+    // The worker's memory limit holds the largest cloud allowed, at the measured peak of about
+    // 22 bytes a point (deploy/README.md, Sizing), with a margin.
+    let config = resource(&all, "ConfigMap", "asbuilt");
+    let max_points: u64 = config["data"]["ASBUILT_MAX_POINTS"]
+        .as_str()
+        .expect("the ConfigMap sets ASBUILT_MAX_POINTS")
+        .parse()
         .unwrap();
-    assert!(grace >= 30, "grace {grace}");
+    let limit = mem_bytes(&w["resources"]["limits"]["memory"]);
+    assert!(
+        limit >= max_points * 24 + (64 << 20),
+        "{limit} B for {max_points} points"
+    );
+    // On SIGTERM a process gets the shutdown timeout to drain connections and hand jobs back;
+    // the kubelet must not SIGKILL it before then.
+    let timeout = config["data"]["ASBUILT_SHUTDOWN_TIMEOUT"].as_str().map_or(
+        asbuilt::config::Config::default().shutdown_timeout_secs,
+        |t| t.parse().unwrap(),
+    ) as i64;
+    for d in [api, worker] {
+        let grace = d["spec"]["template"]["spec"]["terminationGracePeriodSeconds"]
+            .as_i64()
+            .unwrap();
+        assert!(
+            grace > timeout + 5,
+            "grace {grace} s, shutdown timeout {timeout} s"
+        );
+    }
 }
 
 #[test]

@@ -383,3 +383,154 @@ async fn one_api_three_workers_survive_a_killed_worker() {
     drop(_api);
     cluster.engines.drop_schema(&cluster.schema).await;
 }
+
+/// A serving process or worker refuses to start on a database nobody migrated, naming the
+/// command that fixes it; after `asbuilt migrate` it starts.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn processes_refuse_an_unmigrated_database() {
+    let Some(engines) = engines("processes_refuse_an_unmigrated_database") else {
+        return;
+    };
+    let schema = engines.new_schema("unmigrated").await;
+    let database = engines.url_in(&schema);
+    let data = tempfile::tempdir().unwrap();
+    for role in [&["serve", "--no-workers"][..], &["worker"]] {
+        let out = Command::new(env!("CARGO_BIN_EXE_asbuilt"))
+            .args(role)
+            .args(["--listen", "127.0.0.1:0", "--database-url", &database])
+            .arg("--data-dir")
+            .arg(data.path())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{role:?} started: {err}");
+        assert!(err.contains("run `asbuilt migrate`"), "{role:?}: {err}");
+    }
+    let status = Command::new(env!("CARGO_BIN_EXE_asbuilt"))
+        .args(["migrate", "--database-url", &database])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let config = asbuilt::config::Config {
+        listen: "127.0.0.1:0".parse().unwrap(),
+        data_dir: data.path().to_path_buf(),
+        database_url: Some(database),
+        workers: 0,
+        ..Default::default()
+    };
+    config.check().unwrap();
+    let pipeline = asbuilt::app::pipeline_for(&config);
+    let running = asbuilt::app::start(config, pipeline).await.unwrap();
+    running.stop().await.unwrap();
+    engines.drop_schema(&schema).await;
+}
+
+/// With `--presign`, results are answered as redirects to pre-signed S3 URLs that fetch the
+/// same bytes without credentials; without it they stream through the API.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn results_redirect_to_presigned_urls_when_configured() {
+    let Some(engines) = engines("results_redirect_to_presigned_urls_when_configured") else {
+        return;
+    };
+    let schema = engines.new_schema("presign").await;
+    let database = engines.url_in(&schema);
+    let migrated = Command::new(env!("CARGO_BIN_EXE_asbuilt"))
+        .args(["migrate", "--database-url", &database])
+        .status()
+        .unwrap();
+    assert!(migrated.success());
+    engines.ensure_bucket("asbuilt-suite").await;
+    let prefix = unique("presign");
+    let data = tempfile::tempdir().unwrap();
+    let s3 = engines.s3_options();
+    let config = asbuilt::config::Config {
+        listen: "127.0.0.1:0".parse().unwrap(),
+        data_dir: data.path().to_path_buf(),
+        database_url: Some(database),
+        storage: Some(format!("s3://asbuilt-suite/{prefix}")),
+        s3_endpoint: s3.endpoint,
+        s3_region: s3.region,
+        s3_access_key_id: s3.access_key_id,
+        s3_secret_access_key: s3.secret_access_key,
+        s3_allow_http: true,
+        presign_secs: 60,
+        workers: 1,
+        lease_secs: 2,
+        fake_pipeline_ms: Some(1),
+        ..Default::default()
+    };
+    let pipeline = asbuilt::app::pipeline_for(&config);
+    let running = asbuilt::app::start(config, pipeline).await.unwrap();
+    let base = format!("http://{}", running.addr);
+    let http = reqwest::Client::builder()
+        .redirect(reqwest::redirect::Policy::none())
+        .build()
+        .unwrap();
+    let job: serde_json::Value = http
+        .post(format!("{base}/v1/jobs"))
+        .body(cloud(1))
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    let id = job["id"].as_str().unwrap().to_string();
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        let job: serde_json::Value = http
+            .get(format!("{base}/v1/jobs/{id}"))
+            .send()
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap();
+        if job["status"] == "succeeded" {
+            break;
+        }
+        assert!(
+            job["status"] == "queued" || job["status"] == "running",
+            "{job}"
+        );
+        assert!(Instant::now() < deadline, "{job}");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    for file in ["plan.geojson", "plan.svg", "plan.dxf"] {
+        let res = http
+            .get(format!("{base}/v1/jobs/{id}/{file}"))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(res.status().as_u16(), 307, "{file}");
+        let url = res.headers()["location"].to_str().unwrap().to_string();
+        assert!(
+            url.contains("X-Amz-Signature=") && url.contains(&prefix),
+            "{url}"
+        );
+        let direct = reqwest::get(&url).await.unwrap();
+        assert_eq!(direct.status().as_u16(), 200, "{url}");
+        let body = direct.text().await.unwrap();
+        match file {
+            "plan.geojson" => check_geojson(&body),
+            "plan.svg" => assert!(body.contains("<svg")),
+            _ => assert!(body.trim_end().ends_with("EOF")),
+        }
+    }
+    // A job that has no result yet is still refused by the API, not redirected.
+    let missing = asbuilt::queue::JobId::new();
+    let res = http
+        .get(format!("{base}/v1/jobs/{missing}/plan.svg"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(res.status().as_u16(), 404);
+    let res = http
+        .delete(format!("{base}/v1/jobs/{id}"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(res.status().as_u16(), 204);
+    running.stop().await.unwrap();
+    engines.drop_schema(&schema).await;
+}

@@ -122,6 +122,25 @@ async fn upload_queue_work_and_fetch_results() {
         .await
         .unwrap();
     assert!(dxf.contains("AC1009") && dxf.contains("ARC") && dxf.ends_with("EOF\n"));
+    // An independent reader opens the served file: R12, metres, a story layer and a walls
+    // layer, the arc wall as a real ARC.
+    if let Some(v) = common::ezdxf_summary(dxf.as_bytes()) {
+        assert_eq!(v["version"], "AC1009", "{v}");
+        assert_eq!(v["insunits"], 6, "metres: {v}");
+        assert_eq!(v["errors"], 0, "{v}");
+        for layer in ["STORY_0", "WALLS_0"] {
+            assert!(
+                v["layers"].as_array().unwrap().iter().any(|l| l == layer),
+                "{v}"
+            );
+        }
+        assert_eq!(v["counts"]["ARC@WALLS_0"], 1, "{v}");
+        assert_eq!(v["arc_radii"][0], 0.5, "{v}");
+        assert!(
+            v["counts"]["POLYLINE@STORY_0"].as_u64().unwrap() >= 1,
+            "{v}"
+        );
+    }
 }
 
 #[tokio::test]
@@ -916,7 +935,46 @@ async fn openapi_document_matches_the_file_routes_and_codes() {
         .map(|s| s.as_str().to_string())
         .collect();
     assert_eq!(enum_of("Status"), statuses);
-    // Each error status a code uses is answered by some operation.
+    // Each error code's status is answered by some operation, whose response names the code;
+    // and no operation documents an error status that no code has.
+    let mut documented: std::collections::BTreeMap<String, Vec<String>> = Default::default();
+    for item in paths.values() {
+        for op in item.as_object().unwrap().values() {
+            for (status, r) in op["responses"].as_object().into_iter().flatten() {
+                let r = match r["$ref"].as_str() {
+                    Some(name) => {
+                        &served["components"]["responses"][name.rsplit('/').next().unwrap()]
+                    }
+                    None => r,
+                };
+                let text = r["description"].as_str().unwrap_or_default().to_string();
+                documented.entry(status.clone()).or_default().push(text);
+            }
+        }
+    }
+    for (code, status, _) in CODES {
+        if ["route_not_found", "method_not_allowed"].contains(code) {
+            let intro = served["info"]["description"].as_str().unwrap();
+            assert!(
+                intro.contains(&format!("{status} {code}")),
+                "{code} is described"
+            );
+            continue;
+        }
+        let texts = documented
+            .get(&status.to_string())
+            .unwrap_or_else(|| panic!("{status}"));
+        assert!(
+            texts.iter().any(|t| t.contains(&format!("`{code}`"))),
+            "no {status} response names `{code}`"
+        );
+    }
+    for status in documented.keys().filter(|s| s.as_str() >= "400") {
+        assert!(
+            CODES.iter().any(|(_, st, _)| st.to_string() == *status),
+            "{status} is documented but no code has it"
+        );
+    }
     let job = s.upload(xyz(3)).await;
     let required: Vec<&str> = served["components"]["schemas"]["Job"]["required"]
         .as_array()
@@ -967,4 +1025,532 @@ async fn health_and_the_page() {
         .await
         .unwrap();
     assert!(defaults["samples"]["cell_size"].as_f64().unwrap() > 0.0);
+}
+
+/// Sends a whole chunked upload before reading the answer, as simple clients (curl) do; an
+/// error means the server closed on the client mid-send, losing its answer.
+async fn post_all_then_read(
+    addr: &str,
+    key: Option<&str>,
+    body: &[u8],
+) -> std::io::Result<(u16, Value)> {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let mut tcp = tokio::net::TcpStream::connect(addr).await?;
+    let auth = key
+        .map(|k| format!("Authorization: Bearer {k}\r\n"))
+        .unwrap_or_default();
+    let head = format!(
+        "POST /v1/jobs HTTP/1.1\r\nHost: test\r\n{auth}Transfer-Encoding: chunked\r\n\
+         Connection: close\r\n\r\n"
+    );
+    tcp.write_all(head.as_bytes()).await?;
+    for c in body.chunks(64 << 10) {
+        tcp.write_all(format!("{:x}\r\n", c.len()).as_bytes())
+            .await?;
+        tcp.write_all(c).await?;
+        tcp.write_all(b"\r\n").await?;
+    }
+    tcp.write_all(b"0\r\n\r\n").await?;
+    let mut answer = Vec::new();
+    tcp.read_to_end(&mut answer).await?;
+    let text = String::from_utf8_lossy(&answer);
+    let status = text.get(9..12).and_then(|s| s.parse().ok()).unwrap_or(0);
+    let json = text.split_once("\r\n\r\n").map_or("", |(_, b)| b);
+    Ok((status, serde_json::from_str(json).unwrap_or(Value::Null)))
+}
+
+/// A client still sending when the upload is refused reads the JSON error, not a reset
+/// connection: the server reads and drops the rest for a bounded time. 32 MiB is well past what
+/// loopback socket buffers absorb.
+#[tokio::test]
+async fn refused_uploads_are_answered_while_the_client_still_sends() {
+    let s = start(fake(1), |c| {
+        c.workers = 0;
+        c.max_upload_bytes = 64 << 10;
+        c.api_keys = vec!["acme:acme-secret-1".into()];
+    })
+    .await;
+    let addr = s.base.trim_start_matches("http://").to_string();
+    let key = Some("acme-secret-1");
+    let cloud = b"1.5 2.5 3.5\n".repeat(3 << 20);
+    let mut junk = vec![0u8; 32 << 20];
+    junk[..4].copy_from_slice(b"\x89PNG");
+    for (key, body, status, code) in [
+        // Over the limit once 64 KiB have arrived.
+        (key, &cloud[..], 413, "payload_too_large"),
+        // Not a cloud: refused at the first kilobyte.
+        (key, &junk[..], 415, "unsupported_format"),
+        // No key: refused before a byte of the body is read.
+        (None, &cloud[..], 401, "unauthorized"),
+    ] {
+        let (got, answer) = post_all_then_read(&addr, key, body)
+            .await
+            .unwrap_or_else(|e| panic!("{code}: the connection failed mid-upload: {e}"));
+        assert_eq!(
+            (got, answer["error"]["code"].as_str()),
+            (status, Some(code))
+        );
+    }
+    // Declared too large: refused before reading, and answered.
+    expect_error(
+        s.post("/v1/jobs").body(cloud.clone()).send().await.unwrap(),
+        413,
+        "payload_too_large",
+    )
+    .await;
+    assert!(files_under(&s.blobs()).is_empty());
+}
+
+/// Hostile requests: bad UTF-8, absurd and huge values, deep JSON, oversized parts, traversal in
+/// ids and names. Each gets a JSON error with a stable code; the job stored before is untouched.
+#[tokio::test]
+async fn hostile_requests_get_json_errors_and_lose_nothing() {
+    let s = start(fake(1), |c| {
+        c.workers = 1;
+        c.max_upload_bytes = 1 << 20;
+        c.max_sidecar_bytes = 4 << 10;
+    })
+    .await;
+    let kept = s.upload(xyz(20)).await["id"].as_str().unwrap().to_string();
+    let done = s.wait_done(&kept, Duration::from_secs(20)).await;
+    assert_eq!(done["status"], "succeeded");
+    let before: Vec<(std::path::PathBuf, Vec<u8>)> = files_under(&s.blobs())
+        .into_iter()
+        .map(|p| {
+            let bytes = std::fs::read(&p).unwrap();
+            (p, bytes)
+        })
+        .collect();
+    assert_eq!(before.len(), 4, "cloud and three results");
+
+    let huge = "9".repeat(30_000);
+    let long = "x".repeat(30_000);
+    // (query, expected param) on POST /v1/jobs with a good cloud.
+    for (query, param) in [
+        ("samples.cell_size=%FF%FE", "samples.cell_size"),
+        ("%FF%FE=1", "\u{fffd}\u{fffd}"),
+        (
+            &format!("samples.cell_size={huge}") as &str,
+            "samples.cell_size",
+        ),
+        (&format!("{long}=1"), ""),
+        ("samples=1", "samples"),
+        ("samples.cell_size.x=1", "samples.cell_size.x"),
+        ("=1", ""),
+    ] {
+        let body = expect_error(
+            s.post(&format!("/v1/jobs?{query}"))
+                .body(xyz(3))
+                .send()
+                .await
+                .unwrap(),
+            422,
+            "invalid_parameter",
+        )
+        .await;
+        let got = body["error"]["param"].as_str().unwrap();
+        if !param.is_empty() {
+            assert_eq!(got, param, "{query}");
+        }
+        assert!(got.len() < 1000 && body["error"]["message"].as_str().unwrap().len() < 4000);
+    }
+    for (query, param) in [
+        ("limit=99999999999999999999999", "limit"),
+        ("limit=-1", "limit"),
+        ("limit=1e3", "limit"),
+        ("limit=NaN", "limit"),
+        (&format!("status={long}") as &str, "status"),
+        (&format!("cursor={long}"), "cursor"),
+        ("cursor=%00", "cursor"),
+        ("status=%FF", "status"),
+    ] {
+        let body = expect_error(
+            s.get(&format!("/v1/jobs?{query}")).send().await.unwrap(),
+            422,
+            "invalid_parameter",
+        )
+        .await;
+        assert_eq!(body["error"]["param"], param, "{query}");
+        assert!(body.to_string().len() < 2000, "the answer stays small");
+    }
+    // Multipart parts: oversized, deeply nested, not UTF-8, not JSON.
+    let nested = format!("{}1{}", "{\"samples\":".repeat(50_000), "}".repeat(50_000));
+    for (part, bytes, status, code) in [
+        ("params", vec![b' '; 5 << 10], 413, "payload_too_large"),
+        (
+            "params",
+            nested.clone().into_bytes(),
+            413,
+            "payload_too_large",
+        ),
+        (
+            "params",
+            b"{\"samples\":{}}\xff".to_vec(),
+            422,
+            "invalid_parameter",
+        ),
+        (
+            "params",
+            b"[[[[[[[[[[[[[[[[[[[[".repeat(200),
+            422,
+            "invalid_parameter",
+        ),
+        ("poses", b"\xff\xfe{}".to_vec(), 422, "invalid_sidecar"),
+        ("poses", vec![b'['; 4000], 422, "invalid_sidecar"),
+        ("trajectory", vec![b' '; 5 << 10], 413, "payload_too_large"),
+    ] {
+        let form = reqwest::multipart::Form::new()
+            .part("cloud", reqwest::multipart::Part::text(xyz(3)))
+            .part(part, reqwest::multipart::Part::bytes(bytes));
+        expect_error(
+            s.post("/v1/jobs").multipart(form).send().await.unwrap(),
+            status,
+            code,
+        )
+        .await;
+    }
+    // A params part within the size limit but nested past the parser's depth limit.
+    let deep = format!("{}1{}", "{\"a\":".repeat(600), "}".repeat(600));
+    let form = reqwest::multipart::Form::new()
+        .part("cloud", reqwest::multipart::Part::text(xyz(3)))
+        .part("params", reqwest::multipart::Part::text(deep));
+    expect_error(
+        s.post("/v1/jobs").multipart(form).send().await.unwrap(),
+        422,
+        "invalid_parameter",
+    )
+    .await;
+    // Bodies that are not clouds: bad UTF-8 text, NUL bytes, a JSON document.
+    for body in [
+        b"\xff\xfe\xfd 1 2 3\n".to_vec(),
+        b"1 2 3\n\0\0\0\n".to_vec(),
+        br#"{"type": "FeatureCollection"}"#.to_vec(),
+    ] {
+        expect_error(
+            s.post("/v1/jobs").body(body).send().await.unwrap(),
+            415,
+            "unsupported_format",
+        )
+        .await;
+    }
+    // Traversal and junk in ids: never found, never a file.
+    let long_id = "a".repeat(10_000);
+    for id in [
+        "%2e%2e%2f%2e%2e%2fasbuilt.db",
+        "..%5C..%5Casbuilt.db",
+        "%00",
+        &long_id as &str,
+        "0190c1d2-7a3b-7c00-8000-000000000000%00",
+        &format!("{kept}%2F..%2F{kept}"),
+    ] {
+        for path in ["", "/plan.geojson", "/events"] {
+            expect_error(
+                s.get(&format!("/v1/jobs/{id}{path}")).send().await.unwrap(),
+                404,
+                "not_found",
+            )
+            .await;
+        }
+        expect_error(
+            s.delete(&format!("/v1/jobs/{id}")).send().await.unwrap(),
+            404,
+            "not_found",
+        )
+        .await;
+    }
+    // A hostile display name is cut to its last segment, without control characters.
+    let named = s
+        .post(&format!(
+            "/v1/jobs?filename=..%2F..%2Fetc%2Fpass%00wd%0A{}",
+            "n".repeat(5000)
+        ))
+        .body(xyz(3))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(named.status(), 202);
+    let named: Value = named.json().await.unwrap();
+    let name = named["upload"]["filename"].as_str().unwrap();
+    assert!(
+        name.starts_with("passwd") && name.chars().count() == 200,
+        "{name}"
+    );
+    s.wait_done(named["id"].as_str().unwrap(), Duration::from_secs(20))
+        .await;
+
+    // The job stored before is whole, its files unchanged, and the server still answers.
+    let again = s.job(&kept).await;
+    assert_eq!(again["status"], "succeeded");
+    for (path, bytes) in &before {
+        assert_eq!(&std::fs::read(path).unwrap(), bytes, "{}", path.display());
+    }
+    let plan = s
+        .get(&format!("/v1/jobs/{kept}/plan.geojson"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(plan.status(), 200);
+    let list: Value = s
+        .get("/v1/jobs")
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    assert_eq!(list["jobs"].as_array().unwrap().len(), 2, "{list}");
+    assert_eq!(
+        files_under(&s.blobs()).len(),
+        8,
+        "two jobs' files, nothing else"
+    );
+}
+
+/// Every kind of answer, from every route, matches the published document: the status is listed
+/// for the operation, the media type too, and JSON bodies validate against their schemas
+/// (jobs queued, running, succeeded and failed; pages; errors; events).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn every_answer_matches_the_document() {
+    let s = start(fake(60), |c| {
+        c.workers = 1;
+        c.max_upload_bytes = 64 << 10;
+        c.max_sidecar_bytes = 4 << 10;
+        c.api_keys = vec!["acme:acme-secret-1".into(), "bolt:bolt-secret-2".into()];
+    })
+    .await;
+    let mut contract = common::contract::Contract::load();
+    let anon = reqwest::Client::new();
+    // Sends a request, checks the answer against the document, returns status and body.
+    async fn call(
+        contract: &mut common::contract::Contract,
+        method: &str,
+        path: &str,
+        req: reqwest::RequestBuilder,
+    ) -> (u16, Vec<u8>) {
+        let res = req.send().await.unwrap();
+        let status = res.status().as_u16();
+        let media = res
+            .headers()
+            .get("content-type")
+            .map(|v| v.to_str().unwrap().to_string())
+            .unwrap_or_default();
+        if status == 202 {
+            assert!(res.headers().contains_key("location"));
+        }
+        let body = res.bytes().await.unwrap().to_vec();
+        contract.answer(method, path, status, &media, &body);
+        (status, body)
+    }
+    let job_of = |body: &[u8]| -> String {
+        let v: Value = serde_json::from_slice(body).unwrap();
+        v["id"].as_str().unwrap().to_string()
+    };
+
+    for path in [
+        "/",
+        "/healthz",
+        "/readyz",
+        "/metrics",
+        "/openapi.json",
+        "/v1/parameters",
+    ] {
+        let (status, _) = call(&mut contract, "GET", path, anon.get(s.url(path))).await;
+        assert_eq!(status, 200, "{path}");
+    }
+    // Uploads: accepted (raw and multipart) and each kind of refusal.
+    let (status, body) = call(
+        &mut contract,
+        "POST",
+        "/v1/jobs",
+        s.post("/v1/jobs?filename=a.xyz").body(xyz(10)),
+    )
+    .await;
+    assert_eq!(status, 202);
+    let good = job_of(&body);
+    let form = reqwest::multipart::Form::new()
+        .part(
+            "cloud",
+            reqwest::multipart::Part::text(format!("{}#fail:no_stories\n", xyz(3))),
+        )
+        .part("poses", reqwest::multipart::Part::text("{}"));
+    let (status, body) = call(
+        &mut contract,
+        "POST",
+        "/v1/jobs",
+        s.post("/v1/jobs").multipart(form),
+    )
+    .await;
+    assert_eq!(status, 202);
+    let failing = job_of(&body);
+    let bad_form = || {
+        reqwest::multipart::Form::new()
+            .part("cloud", reqwest::multipart::Part::text(xyz(3)))
+            .part("clouds", reqwest::multipart::Part::text(xyz(3)))
+    };
+    let big_params = || {
+        reqwest::multipart::Form::new()
+            .part("cloud", reqwest::multipart::Part::text(xyz(3)))
+            .part(
+                "params",
+                reqwest::multipart::Part::text(" ".repeat(5 << 10)),
+            )
+    };
+    let bad_poses = || {
+        reqwest::multipart::Form::new()
+            .part("cloud", reqwest::multipart::Part::text(xyz(3)))
+            .part("poses", reqwest::multipart::Part::text("[]"))
+    };
+    for (req, expected) in [
+        (s.post("/v1/jobs").multipart(bad_form()), 400),
+        (anon.post(s.url("/v1/jobs")).body(xyz(3)), 401),
+        (s.post("/v1/jobs").body(xyz(10_000)), 413),
+        (s.post("/v1/jobs").multipart(big_params()), 413),
+        (s.post("/v1/jobs").body(b"\x89PNG\r\n".to_vec()), 415),
+        (s.post("/v1/jobs?samples.nope=1").body(xyz(3)), 422),
+        (s.post("/v1/jobs").body(""), 422),
+        (s.post("/v1/jobs").multipart(bad_poses()), 422),
+    ] {
+        let (status, _) = call(&mut contract, "POST", "/v1/jobs", req).await;
+        assert_eq!(status, expected);
+    }
+    // Jobs in each state, as they pass.
+    let mut seen = std::collections::BTreeSet::new();
+    let end = Instant::now() + Duration::from_secs(20);
+    while seen.len() < 3 || !seen.contains("succeeded") {
+        for id in [&good, &failing] {
+            let path = format!("/v1/jobs/{id}");
+            let (_, body) = call(&mut contract, "GET", &path, s.get(&path)).await;
+            let job: Value = serde_json::from_slice(&body).unwrap();
+            seen.insert(job["status"].as_str().unwrap().to_string());
+        }
+        assert!(Instant::now() < end, "saw only {seen:?}");
+        tokio::time::sleep(Duration::from_millis(15)).await;
+    }
+    let done = s.wait_done(&failing, Duration::from_secs(20)).await;
+    assert_eq!(done["status"], "failed");
+    contract.job(&done);
+    // The schema is strict: an extra field, a failed job without its error, or a queued job
+    // with result links does not pass.
+    let job = "/components/schemas/Job";
+    let mut extra = done.clone();
+    extra["surprise"] = Value::Bool(true);
+    let mut silent = done.clone();
+    silent["error"] = Value::Null;
+    let mut early = s.wait_done(&good, Duration::from_secs(20)).await;
+    early["status"] = "queued".into();
+    for wrong in [extra, silent, early] {
+        assert!(!contract.accepts(job, &wrong), "{wrong}");
+    }
+    for q in [
+        "",
+        "?limit=1",
+        "?status=failed",
+        "?limit=0",
+        "?status=nope",
+        "?cursor=x",
+    ] {
+        let path = format!("/v1/jobs{q}");
+        call(&mut contract, "GET", &path, s.get(&path)).await;
+    }
+    call(
+        &mut contract,
+        "GET",
+        "/v1/jobs",
+        anon.get(s.url("/v1/jobs")),
+    )
+    .await;
+    // Results, and their refusals: not ready, other tenant, bad id, no key.
+    let bolt = |p: &str| anon.get(s.url(p)).bearer_auth("bolt-secret-2");
+    for file in ["plan.geojson", "plan.svg", "plan.dxf"] {
+        let ok = format!("/v1/jobs/{good}/{file}");
+        let (status, _) = call(&mut contract, "GET", &ok, s.get(&ok)).await;
+        assert_eq!(status, 200);
+        let not_ready = format!("/v1/jobs/{failing}/{file}");
+        assert_eq!(
+            call(&mut contract, "GET", &not_ready, s.get(&not_ready))
+                .await
+                .0,
+            409
+        );
+        assert_eq!(call(&mut contract, "GET", &ok, bolt(&ok)).await.0, 404);
+        assert_eq!(
+            call(&mut contract, "GET", &ok, anon.get(s.url(&ok)))
+                .await
+                .0,
+            401
+        );
+        let bad = format!("/v1/jobs/nope/{file}");
+        assert_eq!(call(&mut contract, "GET", &bad, s.get(&bad)).await.0, 404);
+    }
+    // Events: each `job` event's data is a Job.
+    let events = format!("/v1/jobs/{good}/events");
+    let (status, body) = call(&mut contract, "GET", &events, s.get(&events)).await;
+    assert_eq!(status, 200);
+    let text = String::from_utf8(body).unwrap();
+    let mut n = 0;
+    for block in text.split("\n\n").filter(|b| b.contains("event: job")) {
+        let data: String = block
+            .lines()
+            .filter_map(|l| l.strip_prefix("data: "))
+            .collect();
+        contract.job(&serde_json::from_str(&data).unwrap());
+        n += 1;
+    }
+    assert!(n >= 1, "{text}");
+    assert_eq!(
+        call(&mut contract, "GET", &events, bolt(&events)).await.0,
+        404
+    );
+    // Delete, twice; the router's fallbacks.
+    let path = format!("/v1/jobs/{good}");
+    assert_eq!(
+        call(&mut contract, "DELETE", &path, s.delete(&path))
+            .await
+            .0,
+        204
+    );
+    assert_eq!(
+        call(&mut contract, "DELETE", &path, s.delete(&path))
+            .await
+            .0,
+        404
+    );
+    assert_eq!(
+        call(&mut contract, "GET", "/v1/nope", s.get("/v1/nope"))
+            .await
+            .0,
+        404
+    );
+    let put = s.client.put(s.url("/v1/jobs"));
+    assert_eq!(call(&mut contract, "PUT", "/v1/jobs", put).await.0, 405);
+}
+
+/// Shutdown does not wait forever on a client that stalls mid-upload: open connections get
+/// the shutdown timeout too, then are closed.
+#[tokio::test]
+async fn shutdown_does_not_wait_for_a_stalled_upload() {
+    use tokio::io::AsyncWriteExt;
+    let mut s = start(fake(1), |c| {
+        c.workers = 1;
+        c.shutdown_timeout_secs = 1;
+    })
+    .await;
+    let addr = s.base.trim_start_matches("http://").to_string();
+    let mut tcp = tokio::net::TcpStream::connect(&addr).await.unwrap();
+    tcp.write_all(
+        b"POST /v1/jobs HTTP/1.1\r\nHost: test\r\nContent-Length: 1000000\r\n\r\n1 2 3\n",
+    )
+    .await
+    .unwrap();
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    let t0 = Instant::now();
+    tokio::time::timeout(Duration::from_secs(10), s.stop())
+        .await
+        .expect("shutdown hung on the stalled upload");
+    assert!(t0.elapsed() < Duration::from_secs(4), "{:?}", t0.elapsed());
+    assert!(
+        files_under(&s.blobs()).is_empty(),
+        "the partial upload was kept"
+    );
+    drop(tcp);
 }

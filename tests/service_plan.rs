@@ -153,6 +153,38 @@ async fn a_simulated_scan_becomes_a_plan_over_http() {
         .await
         .unwrap();
     assert!(dxf.contains("AC1009") && dxf.contains("STORY_0") && dxf.ends_with("EOF\n"));
+    // ezdxf opens it: a story layer and a walls layer for each story of the plan.
+    if let Some(v) = common::ezdxf_summary(dxf.as_bytes()) {
+        assert_eq!(
+            (&v["version"], &v["insunits"], &v["errors"]),
+            (&"AC1009".into(), &6.into(), &0.into()),
+            "{v}"
+        );
+        let levels: Vec<i64> = doc["features"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|f| f["properties"]["kind"] == "story")
+            .map(|f| f["properties"]["level"].as_i64().unwrap())
+            .collect();
+        assert!(!levels.is_empty());
+        for level in levels {
+            for layer in [format!("STORY_{level}"), format!("WALLS_{level}")] {
+                assert!(
+                    v["layers"].as_array().unwrap().iter().any(|l| *l == *layer),
+                    "{layer}: {v}"
+                );
+                let entities: u64 = v["counts"]
+                    .as_object()
+                    .unwrap()
+                    .iter()
+                    .filter(|(k, _)| k.ends_with(&format!("@{layer}")))
+                    .map(|(_, n)| n.as_u64().unwrap())
+                    .sum();
+                assert!(entities > 0, "{layer} is empty: {v}");
+            }
+        }
+    }
 }
 
 #[tokio::test(flavor = "multi_thread")]
@@ -169,4 +201,45 @@ async fn the_page_draws_a_simulated_scan() {
         common::browser_upload(&s.base, &scan.join("cloud.ply"), Some(&poses), &shot, None).await;
     assert_eq!(seen["status"], "succeeded");
     assert!(seen["walls"].as_u64().unwrap() >= 4, "{seen}");
+}
+
+/// The point limit is checked against the file's own count before the points are read: a PLY
+/// header claiming four billion vertices fails at once with `too_many_points`, not after (or
+/// instead of) allocating them; a real LAS over a small limit fails the same way.
+#[tokio::test(flavor = "multi_thread")]
+async fn over_limit_clouds_fail_before_they_are_read() {
+    let s = common::start(Arc::new(PlanPipeline), |c| {
+        c.workers = 1;
+        c.max_points = 500;
+    })
+    .await;
+    let claim = b"ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\n\
+                  property float x\nproperty float y\nproperty float z\nend_header\n\0\0\0\0"
+        .to_vec();
+    let world: Vec<[f64; 3]> = (0..1000)
+        .map(|i| [i as f64 * 0.01, (i % 7) as f64, (i % 3) as f64])
+        .collect();
+    let las = s.dir.path().join("cloud.las");
+    asbuilt_plan::io::export::write_las(
+        &las,
+        &asbuilt_plan::cloud::PointCloud::from_world(&world),
+        false,
+    )
+    .unwrap();
+    for (body, points) in [
+        (claim, "4000000000"),
+        (std::fs::read(&las).unwrap(), "1000"),
+    ] {
+        let job = s.upload(body).await;
+        let done = s
+            .wait_done(job["id"].as_str().unwrap(), Duration::from_secs(30))
+            .await;
+        assert_eq!(done["status"], "failed", "{done}");
+        assert_eq!(done["error"]["code"], "too_many_points", "{done}");
+        let message = done["error"]["message"].as_str().unwrap();
+        assert!(
+            message.contains(points) && message.contains("500"),
+            "{message}"
+        );
+    }
 }

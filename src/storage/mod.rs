@@ -110,6 +110,28 @@ impl ObjectBlobStore {
     }
 }
 
+/// Flushes a finished local file and its folder entry to disk. Job rows are synced (SQLite
+/// `synchronous=FULL`), so the files they promise must be too: an upload before its `202`, a
+/// result before its job turns `succeeded`; else a power cut could keep a job without its files.
+async fn sync_to_disk(path: &Path) -> Result<(), BlobError> {
+    let fail = |e: std::io::Error| BlobError::Store(format!("{}: {e}", path.display()));
+    tokio::fs::File::open(path)
+        .await
+        .map_err(fail)?
+        .sync_all()
+        .await
+        .map_err(fail)?;
+    if let Some(dir) = path.parent() {
+        tokio::fs::File::open(dir)
+            .await
+            .map_err(fail)?
+            .sync_all()
+            .await
+            .map_err(fail)?;
+    }
+    Ok(())
+}
+
 fn sha256_hex(digest: impl AsRef<[u8]>) -> String {
     digest.as_ref().iter().map(|b| format!("{b:02x}")).collect()
 }
@@ -150,6 +172,9 @@ impl BlobStore for ObjectBlobStore {
             return Err(e);
         }
         writer.finish().await?;
+        if let Some(path) = self.local_path(key) {
+            sync_to_disk(&path).await?;
+        }
         Ok(Stored {
             bytes,
             sha256: sha256_hex(hasher.finalize()),
@@ -164,6 +189,10 @@ impl BlobStore for ObjectBlobStore {
         self.inner
             .put(&ObjectPath::from(key), PutPayload::from_bytes(bytes))
             .await?;
+        // Results too: the job turns `succeeded` only after they are on disk.
+        if let Some(path) = self.local_path(key) {
+            sync_to_disk(&path).await?;
+        }
         Ok(stored)
     }
 

@@ -3,6 +3,7 @@
 
 pub mod fake;
 pub mod pipeline;
+pub mod points;
 pub mod progress;
 pub mod sweeper;
 
@@ -239,7 +240,9 @@ impl Workers {
                     self.discard_results(id).await?;
                 }
             }
-            (Some(Stop::TimeLimit), Err(_)) => {
+            // Only the time limit is left to have stopped the run; a run that failed on its own
+            // reports its own error, even if the deadline passed meanwhile.
+            (_, Err(f)) if f.code == PipelineFailure::cancelled().code => {
                 let error = JobError {
                     code: "time_limit".into(),
                     message: format!(
@@ -251,7 +254,7 @@ impl Workers {
                     metrics.failure(&error.code);
                 }
             }
-            (None, Err(f)) => {
+            (_, Err(f)) => {
                 tracing::info!(job = %id, code = %f.code, message = %f.message, "job failed");
                 let error = JobError {
                     code: f.code,

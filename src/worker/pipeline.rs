@@ -116,6 +116,12 @@ impl Pipeline for PlanPipeline {
     ) -> Result<JobResults, PipelineFailure> {
         progress.report(Stage::Read, 0.0);
         let read_start = Instant::now();
+        // Refuse an over-limit cloud before the reader allocates it.
+        match super::points::declared(&input.cloud, &|| progress.cancelled()) {
+            Ok(Some(n)) => check_points(n, input.max_points)?,
+            Ok(None) => {}
+            Err(super::points::CountStop::Cancelled) => return Err(PipelineFailure::cancelled()),
+        }
         let mut cloud = io::read_cloud(&input.cloud).map_err(|e| {
             PipelineFailure::new(e.code(), hide_path(e.to_string(), &input.cloud, "cloud"))
         })?;

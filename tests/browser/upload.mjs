@@ -26,7 +26,13 @@ try {
   await page.waitForSelector("#p-samples\\.cell_size", { timeout: 10000 });
   if (process.env.POSES) await page.setInputFiles("#poses", process.env.POSES);
   await page.setInputFiles("#file", cloud);
+  // Choosing a file only selects it; nothing is sent until the button is pressed.
+  const chosen = await page.textContent("#chosen");
+  if (!chosen.includes(cloud.split("/").pop())) await fail("chosen file not shown: " + chosen);
+  if ((await page.locator("#jobs li[data-id]").count()) !== 0) await fail("a job started before Upload");
+  await page.click("#start");
   await page.waitForSelector("#plan[data-drawn=true]", { timeout: 90000 });
+  await page.waitForSelector("#jobs li.current", { timeout: 10000 });
   const seen = await page.evaluate(() => ({
     status: document.getElementById("status").textContent,
     walls: document.querySelectorAll("#plan polyline.wall").length,
@@ -37,6 +43,9 @@ try {
     stages: [...document.querySelectorAll("#stages li.done")].length,
     upload: document.getElementById("uptext").textContent,
     jobs: document.querySelectorAll("#jobs li").length,
+    current: document.querySelectorAll("#jobs li.current").length,
+    legend: document.querySelectorAll(".legend span").length,
+    cancelHidden: document.getElementById("cancel").hidden,
   }));
   await page.screenshot({ path: shot, fullPage: true });
   // Zoom in: the scale bar must follow.
@@ -50,6 +59,8 @@ try {
   if (seen.status !== "succeeded") await fail("status is " + seen.status);
   if (seen.walls < 1 || seen.areas < 1) await fail("no plan drawn");
   if (seen.downloads !== 3) await fail("downloads not enabled");
+  if (seen.current !== 1) await fail("the shown job is not marked in the list");
+  if (!seen.cancelHidden) await fail("cancel still offered for a finished job");
   if (!seen.upload.includes("SHA-256")) await fail("no upload summary");
   if (seen.zoomedScale === before) await fail("zoom changed nothing: " + before);
   if (seen.zoomedScale.split(" ")[0] === before.split(" ")[0] && seen.zoomedScale.split(" ")[1] === before.split(" ")[1])

@@ -1,6 +1,8 @@
 //! Helpers for the service tests: a server on a free port with a temporary data directory.
 #![allow(dead_code)]
 
+pub mod contract;
+
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -208,4 +210,52 @@ pub async fn browser_upload(
         String::from_utf8_lossy(&out.stderr)
     );
     serde_json::from_str(stdout.lines().last().unwrap_or_default()).unwrap()
+}
+
+/// Reads a DXF with ezdxf, the independent Python DXF library, and summarises it: version,
+/// `$INSUNITS`, layers, audit errors, and entity counts by `TYPE@LAYER`. `None` (after saying
+/// why) when python3 with ezdxf is missing, except under CI, where that fails.
+pub fn ezdxf_summary(dxf: &[u8]) -> Option<Value> {
+    let probe = std::process::Command::new("python3")
+        .args(["-c", "import ezdxf"])
+        .output();
+    if !probe.is_ok_and(|o| o.status.success()) {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI must have python3 with ezdxf (pip install ezdxf)"
+        );
+        eprintln!("skipping the ezdxf check: python3 with ezdxf is not available");
+        return None;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("plan.dxf");
+    std::fs::write(&path, dxf).unwrap();
+    let script = r#"
+import json, sys, ezdxf
+doc = ezdxf.readfile(sys.argv[1])
+auditor = doc.audit()
+counts = {}
+for e in doc.modelspace():
+    key = e.dxftype() + "@" + e.dxf.layer
+    counts[key] = counts.get(key, 0) + 1
+print(json.dumps({
+    "version": doc.dxfversion,
+    "insunits": doc.header.get("$INSUNITS"),
+    "layers": sorted(l.dxf.name for l in doc.layers),
+    "errors": len(auditor.errors),
+    "counts": counts,
+    "arc_radii": [a.dxf.radius for a in doc.modelspace().query("ARC")],
+}))
+"#;
+    let out = std::process::Command::new("python3")
+        .args(["-c", script])
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "ezdxf could not read the DXF: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Some(serde_json::from_slice(&out.stdout).unwrap())
 }

@@ -13,13 +13,14 @@ use axum::body::Body;
 use axum::extract::multipart::{Field, MultipartError};
 use axum::extract::rejection::QueryRejection;
 use axum::extract::{FromRequest, Multipart, Query, Request, State};
-use axum::http::header::{CONTENT_LENGTH, CONTENT_TYPE, LOCATION};
+use axum::http::header::{CONTENT_LENGTH, CONTENT_TYPE, EXPECT, LOCATION};
 use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use axum::Json;
 use bytes::Bytes;
 use futures_util::{StreamExt, TryStreamExt};
 
+use super::drain;
 use super::sniff::sniff;
 use crate::app::AppState;
 use crate::auth::Tenant;
@@ -40,13 +41,28 @@ struct Received {
 
 pub async fn create(
     State(state): State<AppState>,
-    Tenant(tenant): Tenant,
+    tenant: Result<Tenant, ApiError>,
     query: Result<Query<Vec<(String, String)>>, QueryRejection>,
     request: Request,
 ) -> Result<Response, ApiError> {
-    let result = accept(&state, tenant, query, request).await;
+    let expects_continue = request
+        .headers()
+        .get(EXPECT)
+        .is_some_and(|v| v.as_bytes().eq_ignore_ascii_case(b"100-continue"));
+    let (parts, body) = request.into_parts();
+    let (body, rest) = drain::split(body);
+    let request = Request::from_parts(parts, body);
+    let result = match tenant {
+        Ok(Tenant(tenant)) => accept(&state, tenant, query, request).await,
+        Err(e) => {
+            drop(request);
+            Err(e)
+        }
+    };
     if let Err(e) = &result {
         state.metrics.rejected(e.code);
+        // The request (and its body) is gone; read what the client is still sending.
+        rest.drain(expects_continue, drain::BUDGET).await;
     }
     result
 }

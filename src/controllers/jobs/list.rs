@@ -37,10 +37,10 @@ pub async fn list(
     for (key, value) in pairs {
         match key.as_str() {
             "status" => {
-                q.status = Some(value.parse().map_err(|e: String| {
+                q.status = Some(value.parse().map_err(|_: String| {
                     ApiError::param(
                         "status",
-                        format!("{e}; use queued, running, succeeded, failed or cancelled"),
+                        "unknown status; use queued, running, succeeded, failed or cancelled",
                     )
                 })?)
             }

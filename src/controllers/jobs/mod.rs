@@ -2,6 +2,7 @@
 
 pub mod create;
 pub mod delete;
+mod drain;
 pub mod events;
 pub mod list;
 pub mod results;
