@@ -119,6 +119,16 @@ fn unknown_parameter_is_named() {
     ]);
     let line = assert_one_line_failure(&out);
     assert!(line.contains("samples.cell_size"), "{line}");
+
+    // Out of range: refused before the cloud is read, naming the parameter.
+    let out = asbuilt(&[
+        "plan",
+        input.to_str().unwrap(),
+        "--param",
+        "labeling.min_rays=0",
+    ]);
+    let line = assert_one_line_failure(&out);
+    assert!(line.contains("labeling.min_rays"), "{line}");
 }
 
 #[test]

@@ -529,6 +529,23 @@ async fn bad_bodies_and_parameters_get_stable_codes() {
     )
     .await;
     assert_eq!(body["error"]["param"], "samples.cell_size");
+    // A well-formed value out of range is refused up front, named, before any job exists.
+    for (query, param) in [
+        ("samples.cell_size=-1", "samples.cell_size"),
+        ("fitting.inlier_angle=7", "fitting.inlier_angle"),
+    ] {
+        let body = expect_error(
+            s.post(&format!("/v1/jobs?{query}"))
+                .body(xyz(3))
+                .send()
+                .await
+                .unwrap(),
+            422,
+            "invalid_parameter",
+        )
+        .await;
+        assert_eq!(body["error"]["param"], param, "{body}");
+    }
     // Hostile JSON in the params part: deep nesting, wrong types, unknown fields.
     let deep = "[".repeat(100_000);
     for (params, param) in [

@@ -147,6 +147,7 @@ fn params(args: &PlanArgs) -> anyhow::Result<Params> {
     if args.emit_samples {
         params.emit_samples = true;
     }
+    params.check()?;
     Ok(params)
 }
 

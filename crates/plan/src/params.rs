@@ -71,6 +71,57 @@ impl Params {
         Ok(())
     }
 
+    /// Checks every stage's values before a run, so a bad value is refused up front (the service
+    /// answers 422) rather than failing the run later. The error names `section.name`.
+    pub fn check(&self) -> Result<(), ParamsError> {
+        fn named(section: &str, name: &str, why: String) -> ParamsError {
+            ParamsError::Invalid {
+                name: format!("{section}.{name}"),
+                why,
+            }
+        }
+        use crate::fitting::FittingError;
+        use crate::labeling::LabelingError;
+        use crate::samples::SamplesError;
+        use crate::smoothing::SmoothingError;
+        use crate::stories::StoriesError;
+        match self.stories.check() {
+            Err(StoriesError::BadParam { name, why }) => return Err(named("stories", name, why)),
+            Err(e) => return Err(named("stories", "?", e.to_string())),
+            Ok(()) => {}
+        }
+        match self.samples.check() {
+            Err(SamplesError::BadParam { name, why }) => return Err(named("samples", name, why)),
+            Err(e) => return Err(named("samples", "?", e.to_string())),
+            Ok(()) => {}
+        }
+        match self.smoothing.check(self.samples.cell_size) {
+            Err(SmoothingError::BadParam { name, why }) => {
+                return Err(named("smoothing", name, why))
+            }
+            Ok(()) => {}
+        }
+        match self.labeling.check() {
+            Err(LabelingError::BadParam { name, why }) => return Err(named("labeling", name, why)),
+            Err(e) => return Err(named("labeling", "?", e.to_string())),
+            Ok(()) => {}
+        }
+        let c = &self.cleanup;
+        if c.max_hole_area.is_nan() || c.max_hole_area < 0.0 {
+            return Err(named(
+                "cleanup",
+                "max_hole_area",
+                format!("{} is not an area of 0 m² or more", c.max_hole_area),
+            ));
+        }
+        match self.fitting.check() {
+            Err(FittingError::BadParam { name, why }) => return Err(named("fitting", name, why)),
+            Err(e) => return Err(named("fitting", "?", e.to_string())),
+            Ok(()) => {}
+        }
+        Ok(())
+    }
+
     /// The parameters as JSON, for `floorplan.parameters`.
     pub fn to_json(&self) -> serde_json::Value {
         serde_json::to_value(self).expect("params serialize")
@@ -98,6 +149,34 @@ mod tests {
             matches!(p.set("samples.cell_size=abc"), Err(ParamsError::Invalid { name, .. }) if name == "samples.cell_size")
         );
         assert!(matches!(p.set("oops"), Err(ParamsError::Syntax(_))));
+    }
+
+    #[test]
+    fn check_names_the_bad_value_of_each_stage() {
+        assert_eq!(Params::default().check(), Ok(()));
+        for (set, name) in [
+            ("stories.bin_size=0", "stories.bin_size"),
+            ("samples.cell_size=-1", "samples.cell_size"),
+            ("samples.height_bins=99", "samples.height_bins"),
+            ("labeling.ray_fraction=2", "labeling.ray_fraction"),
+            ("cleanup.max_hole_area=-0.5", "cleanup.max_hole_area"),
+            ("fitting.inlier_distance=0", "fitting.inlier_distance"),
+        ] {
+            let mut p = Params::default();
+            p.set(set).unwrap();
+            match p.check() {
+                Err(ParamsError::Invalid { name: n, .. }) => assert_eq!(n, name, "{set}"),
+                other => panic!("{set}: {other:?}"),
+            }
+        }
+        // Smoothing is checked only when it is on.
+        let mut p = Params::default();
+        p.set("smoothing.max_angle=9").unwrap();
+        assert_eq!(p.check(), Ok(()));
+        p.set("smoothing.registration_error=0.01").unwrap();
+        assert!(
+            matches!(p.check(), Err(ParamsError::Invalid { name, .. }) if name == "smoothing.max_angle")
+        );
     }
 
     #[test]

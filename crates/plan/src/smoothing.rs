@@ -76,6 +76,21 @@ pub fn smooth_samples(
     Ok(())
 }
 
+impl SmoothingParams {
+    /// Checks every value for grid cells of `cell_size` metres; the error names the parameter.
+    pub fn check(&self, cell_size: f64) -> Result<(), SmoothingError> {
+        match self.registration_error {
+            Some(error) => check(
+                error,
+                self.distance.unwrap_or(2.0 * error),
+                self.across_cells * cell_size,
+                self.max_angle,
+            ),
+            None => Ok(()),
+        }
+    }
+}
+
 fn check(error: f64, along: f64, across: f64, max_angle: f64) -> Result<(), SmoothingError> {
     let positive = |name, v: f64| {
         if v.is_finite() && v > 0.0 {

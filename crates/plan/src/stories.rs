@@ -92,6 +92,13 @@ pub fn split_stories(z: &[f32], params: &StoriesParams) -> Result<Vec<Story>, St
     }))
 }
 
+impl StoriesParams {
+    /// Checks every value; the error names the parameter.
+    pub fn check(&self) -> Result<(), StoriesError> {
+        check_params(self)
+    }
+}
+
 fn check_params(params: &StoriesParams) -> Result<(), StoriesError> {
     let positive = |name, v: f64| {
         if v.is_finite() && v > 0.0 {

@@ -181,6 +181,8 @@ fn finish_params(r: Received, overrides: &[String]) -> Result<(Received, Params)
         let key = o.split('=').next().unwrap_or_default();
         params.set(o).map_err(|e| params_error(&e, Some(key)))?;
     }
+    // Values out of range are refused now, not by a failed job later.
+    params.check().map_err(|e| params_error(&e, None))?;
     Ok((r, params))
 }
 

@@ -101,6 +101,13 @@ pub struct BoundarySamples {
     pub oriented: Vec<bool>,
 }
 
+impl FittingParams {
+    /// Checks every value; the error names the parameter.
+    pub fn check(&self) -> Result<(), FittingError> {
+        check_params(self)
+    }
+}
+
 fn check_params(p: &FittingParams) -> Result<(), FittingError> {
     let bad = |name, why: &str| {
         Err(FittingError::BadParam {

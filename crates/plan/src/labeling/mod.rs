@@ -293,6 +293,13 @@ pub fn label_with_report(
     ))
 }
 
+impl LabelingParams {
+    /// Checks every value; the error names the parameter.
+    pub fn check(&self) -> Result<(), LabelingError> {
+        check_params(self)
+    }
+}
+
 fn check_params(p: &LabelingParams) -> Result<(), LabelingError> {
     if !(p.ray_fraction > 0.0 && p.ray_fraction <= 1.0) {
         return Err(LabelingError::BadParam {

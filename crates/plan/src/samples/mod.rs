@@ -175,7 +175,30 @@ pub fn sample_walls(
     })
 }
 
+impl SamplesParams {
+    /// Checks every value; the error names the parameter.
+    pub fn check(&self) -> Result<(), SamplesError> {
+        check_values(self)
+    }
+}
+
 fn check_params(params: &SamplesParams, story: &Story) -> Result<(), SamplesError> {
+    check_values(params)?;
+    let bad = |name, why: String| Err(SamplesError::BadParam { name, why });
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    if !positive(story.ceiling_z - story.floor_z) {
+        return bad(
+            "story",
+            format!(
+                "ceiling {} is not above floor {}",
+                story.ceiling_z, story.floor_z
+            ),
+        );
+    }
+    Ok(())
+}
+
+fn check_values(params: &SamplesParams) -> Result<(), SamplesError> {
     let bad = |name, why: String| Err(SamplesError::BadParam { name, why });
     let positive = |v: f64| v.is_finite() && v > 0.0;
     if !positive(params.cell_size) {
@@ -218,15 +241,6 @@ fn check_params(params: &SamplesParams, story: &Story) -> Result<(), SamplesErro
         return bad(
             "min_confidence",
             format!("{} is not within 0..=1", params.min_confidence),
-        );
-    }
-    if !positive(story.ceiling_z - story.floor_z) {
-        return bad(
-            "story",
-            format!(
-                "ceiling {} is not above floor {}",
-                story.ceiling_z, story.floor_z
-            ),
         );
     }
     Ok(())
