@@ -18,6 +18,9 @@ const CHUNK: u64 = 64 * 1024;
 /// No LAZ file holds more points per byte than this; a header that claims more is corrupt.
 const MAX_LAZ_POINTS_PER_BYTE: u64 = 64;
 
+/// Scanner LAZ files take 3 to 10 bytes a point; reserve for no more than this many per byte.
+const LAZ_RESERVE_POINTS_PER_BYTE: u64 = 1;
+
 /// Reads LAS or LAZ from a seekable source of `len` bytes.
 pub fn read_las<R>(
     mut source: R,
@@ -34,8 +37,14 @@ where
     let mut reader = Reader::new(source).map_err(err)?;
     let header = reader.header().clone();
     let count = header.number_of_points();
-    // The first point chooses the local origin: header bounds may be stale or zero.
-    let mut b = CloudBuilder::new(fname, count as usize, None, options.keep_time);
+    // The first point chooses the local origin: header bounds may be stale or zero. LAS counts
+    // are checked exactly against the file's size; a LAZ count only loosely, so its reservation
+    // is capped and the array grows (by a quarter at a time) past that.
+    let reserve = match fname {
+        "laz" => count.min(len.saturating_mul(LAZ_RESERVE_POINTS_PER_BYTE)),
+        _ => count,
+    };
+    let mut b = CloudBuilder::new(fname, reserve as usize, None, options.keep_time);
     let guard = BoundsGuard::new(&header);
     let mut pd = PointDataBuilder::new().for_header(&header).build();
     let mut done = 0u64;
@@ -117,6 +126,7 @@ fn check_header<R: Read + Seek>(
     })?;
     let compressed = raw.point_data_record_format & 0xC0 != 0;
     let format = if compressed { "laz" } else { "las" };
+    check_transforms(&raw, name, format)?;
     let legacy = u64::from(raw.number_of_point_records);
     let points = match raw.large_file {
         Some(lf) if legacy == 0 => lf.number_of_point_records,
@@ -179,6 +189,36 @@ fn check_header<R: Read + Seek>(
     }
     source.seek(SeekFrom::Start(0)).map_err(io)?;
     Ok(HeaderCheck { format })
+}
+
+/// Scale factors must be finite and non-zero and offsets finite, or every point is garbage.
+fn check_transforms(
+    raw: &las::raw::Header,
+    name: &str,
+    format: &'static str,
+) -> Result<(), ReadError> {
+    let fields = [
+        ("x scale factor", raw.x_scale_factor, 131, true),
+        ("y scale factor", raw.y_scale_factor, 139, true),
+        ("z scale factor", raw.z_scale_factor, 147, true),
+        ("x offset", raw.x_offset, 155, false),
+        ("y offset", raw.y_offset, 163, false),
+        ("z offset", raw.z_offset, 171, false),
+    ];
+    for (what, v, at, scale) in fields {
+        if !v.is_finite() || (scale && v == 0.0) {
+            return Err(ReadError::at(
+                name,
+                format,
+                format!(
+                    "the {what} is {v}; it must be a finite{} number",
+                    if scale { ", non-zero" } else { "" }
+                ),
+                format!("byte {at}"),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// LAZ keeps a chunk table whose entry count the decoder allocates from.

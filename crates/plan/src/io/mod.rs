@@ -151,7 +151,7 @@ pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<PointCloud,
 }
 
 /// Reads a point cloud from any seekable source (an upload held in memory, say); `name` is
-/// used in errors. PLY is read from files only.
+/// used in errors.
 pub fn read_cloud_from<R>(
     mut source: R,
     name: &str,
@@ -162,13 +162,6 @@ where
 {
     let head = sniff(&mut source, name)?;
     let format = choose_format(name, &head, options)?;
-    if format == Format::Ply {
-        return Err(ReadError::named(
-            name,
-            "ply",
-            "PLY is read from files only; save it to a file first",
-        ));
-    }
     let cloud = read_stream(source, name, format, options)?;
     finish(cloud, name, options)
 }
@@ -229,7 +222,10 @@ where
             let name = owned_name.as_str();
             match format {
                 Format::E57 => e57::read_e57(source, len, name, &opts),
-                Format::Las | Format::Laz => las::read_las(source, len, name, &opts),
+                // The LAZ decoder reads a byte at a time: buffer it.
+                Format::Las | Format::Laz => {
+                    las::read_las(BufReader::with_capacity(1 << 16, source), len, name, &opts)
+                }
                 Format::Xyz | Format::Pts => xyz::read_xyz(
                     BufReader::with_capacity(1 << 20, source),
                     len,
@@ -237,7 +233,7 @@ where
                     format,
                     &opts,
                 ),
-                Format::Ply => Err(ReadError::named(name, "ply", "PLY needs a file path")),
+                Format::Ply => ply::read_ply_from(source, len, name),
             }
         })
         .map_err(|e| ReadError::io(name, e))?;

@@ -35,7 +35,15 @@ const FORMAT: &str = "ply";
 pub fn read_ply(path: &Path) -> Result<PointCloud, ReadError> {
     let file = File::open(path).map_err(|e| io_error(path, e))?;
     let file_len = file.metadata().map_err(|e| io_error(path, e))?.len();
-    let mut reader = BufReader::with_capacity(1 << 20, file);
+    read_ply_from(file, file_len, &path.display().to_string())
+}
+
+/// Reads PLY from any source of `len` bytes (a file, an upload in memory); `name` is used in
+/// errors. The source is read once, front to back, through a buffer.
+pub fn read_ply_from<R: Read>(source: R, len: u64, name: &str) -> Result<PointCloud, ReadError> {
+    let path = Path::new(name);
+    let file_len = len;
+    let mut reader = BufReader::with_capacity(1 << 20, source);
     let header = read_header(&mut reader, path)?;
     let (vertex_pos, vertex) = header
         .elements
