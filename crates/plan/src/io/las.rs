@@ -49,14 +49,30 @@ where
     let mut pd = PointDataBuilder::new().for_header(&header).build();
     let mut done = 0u64;
     loop {
-        let n = reader.fill_points(CHUNK, &mut pd).map_err(|e| {
-            ReadError::at(
-                name,
-                fname,
-                e.to_string(),
-                format!("point {done} of {count}"),
-            )
-        })?;
+        let at = || {
+            let end = (done + CHUNK).min(count).max(done + 1) - 1;
+            format!("points {done} to {end} of {count}")
+        };
+        // The LAZ decoder asserts on some damaged chunks; catching the panic here, rather than
+        // in the reader thread, tells the user where the damage starts.
+        let filled = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            reader.fill_points(CHUNK, &mut pd)
+        }));
+        let n = match filled {
+            Ok(Ok(n)) => n,
+            Ok(Err(e)) => return Err(ReadError::at(name, fname, e.to_string(), at())),
+            Err(panic) => {
+                return Err(ReadError::at(
+                    name,
+                    fname,
+                    format!(
+                        "the decoder failed ({}): the point data is damaged",
+                        super::panic_text(&panic)
+                    ),
+                    at(),
+                ))
+            }
+        };
         if n == 0 {
             break;
         }
@@ -178,7 +194,17 @@ fn check_header<R: Read + Seek>(
             source.read_exact(&mut size).map_err(io)?;
         }
         let body = u64::from_le_bytes(size);
-        if !fits || at + 60 + body > len {
+        if !fits {
+            return Err(ReadError::at(
+                name,
+                format,
+                format!(
+                    "the first extended VLR's 60-byte header does not fit in the {len}-byte file"
+                ),
+                format!("byte {at}"),
+            ));
+        }
+        if at + 60 + body > len {
             return Err(ReadError::at(
                 name,
                 format,

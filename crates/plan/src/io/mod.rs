@@ -189,9 +189,17 @@ fn choose_format(name: &str, head: &[u8], options: &ReadOptions) -> Result<Forma
     }
     match options.format {
         Some(f) => Ok(f),
-        None => detect::detect(head).map_err(|why| ReadError::UnknownFormat {
-            path: name.into(),
-            why,
+        None => detect::detect(head).map_err(|why| {
+            // Say what the name promised, so a wrong or damaged file is easy to place.
+            let ext = Path::new(name).extension().and_then(|e| e.to_str());
+            let why = match ext {
+                Some(e) if e.parse::<Format>().is_ok() => format!("{why}; the name says .{e}"),
+                _ => why,
+            };
+            ReadError::UnknownFormat {
+                path: name.into(),
+                why,
+            }
         }),
     }
 }
@@ -238,17 +246,24 @@ where
         })
         .map_err(|e| ReadError::io(name, e))?;
     worker.join().unwrap_or_else(|panic| {
-        let what = panic
-            .downcast_ref::<&str>()
-            .map(|s| s.to_string())
-            .or_else(|| panic.downcast_ref::<String>().cloned())
-            .unwrap_or_default();
         Err(ReadError::named(
             name,
             format.name(),
-            format!("the decoder failed ({what}); the file is probably corrupt"),
+            format!(
+                "the decoder failed ({}); the file is probably corrupt",
+                panic_text(&panic)
+            ),
         ))
     })
+}
+
+/// A caught panic's message.
+fn panic_text(panic: &Box<dyn std::any::Any + Send>) -> String {
+    panic
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_default()
 }
 
 /// Applies the scale, records the units and checks the reader's invariants.

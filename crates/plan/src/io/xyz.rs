@@ -71,6 +71,12 @@ pub fn read_xyz<R: BufRead>(
                     at(),
                 ));
             }
+            state.close_block(name, fname)?;
+            state.block = Some(Block {
+                count,
+                line: line_no,
+                seen: 0,
+            });
             b.reserve(count as usize);
             state.blocks += 1;
             state.block_slot = Some(
@@ -91,6 +97,20 @@ pub fn read_xyz<R: BufRead>(
             Err(why) => return Err(ReadError::at(name, fname, why, at())),
         };
         state.seen_content = true;
+        if let Some(block) = &mut state.block {
+            block.seen += 1;
+            if block.seen > block.count {
+                return Err(ReadError::at(
+                    name,
+                    fname,
+                    format!(
+                        "more points than the count line (line {}) says ({})",
+                        block.line, block.count
+                    ),
+                    at(),
+                ));
+            }
+        }
         let slot = match scan {
             Some(id) => Some(
                 b.scan_slot(id)
@@ -103,6 +123,7 @@ pub fn read_xyz<R: BufRead>(
     if line_no == 0 {
         return Err(ReadError::named(name, fname, "the file is empty"));
     }
+    state.close_block(name, fname)?;
     if pts && state.blocks < 2 && options.scan_column.is_none() {
         // One block is one unnamed scan: no scan index worth keeping.
         let c = b.cloud_mut();
@@ -120,6 +141,33 @@ struct State {
     header: Option<String>,
     blocks: u32,
     block_slot: Option<u16>,
+    /// The PTS block being read.
+    block: Option<Block>,
+}
+
+/// A PTS block: the points its count line announced, and how many have come.
+struct Block {
+    count: u64,
+    line: u64,
+    seen: u64,
+}
+
+impl State {
+    /// A block that ends short of its count means a truncated or spliced file.
+    fn close_block(&mut self, name: &str, fname: &'static str) -> Result<(), ReadError> {
+        match self.block.take() {
+            Some(b) if b.seen < b.count => Err(ReadError::at(
+                name,
+                fname,
+                format!(
+                    "the count line says {} points but {} follow: the file is truncated",
+                    b.count, b.seen
+                ),
+                format!("line {}", b.line),
+            )),
+            _ => Ok(()),
+        }
+    }
 }
 
 fn describe(state: &State, options: &ReadOptions, lines: u64, bytes: u64) -> String {

@@ -160,7 +160,7 @@ impl Sink {
             skipped: self.skipped,
             skipped_reason: (self.skipped > 0)
                 .then(|| "non-finite coordinate or time (NaN or infinite)".to_string()),
-            units: "m".into(),
+            units: String::new(),
         };
         self.cloud
     }
