@@ -649,6 +649,63 @@ fn laz_flag_without_laszip_data() {
     expect("flag.laz", &b, &Default::default(), "(laz)", &[]);
 }
 
+/// LAS 1.4 point format 6, compressed: the layered LAZ of terrestrial scanners.
+fn layered_laz() -> Vec<u8> {
+    written("layered.laz", |p| {
+        let mut b = las::Builder::from((1, 4));
+        b.point_format = las::point::Format::new(6).unwrap();
+        b.point_format.is_compressed = true;
+        let mut w = las::Writer::from_path(p, b.into_header().unwrap()).unwrap();
+        for i in 0..1000 {
+            w.write_point(las::Point {
+                x: f64::from(i) * 0.01,
+                y: 1.0,
+                z: 2.0,
+                gps_time: Some(f64::from(i)),
+                return_number: 1,
+                number_of_returns: 1,
+                ..Default::default()
+            })
+            .unwrap();
+        }
+        w.close().unwrap();
+    })
+}
+
+#[test]
+fn laz_layer_of_four_gigabytes() {
+    let b0 = layered_laz();
+    let path = file("layered-ok.laz", &b0);
+    assert_eq!(io::read_cloud(&path).unwrap().len(), 1000);
+    // The chunk: the table offset (8 bytes), the first point raw (30 bytes), the count, then
+    // nine layer sizes. The decoder would zero a buffer of each size before reading it.
+    let start = u32::from_le_bytes(b0[96..100].try_into().unwrap()) as usize;
+    let mut b = b0.clone();
+    put_u32(&mut b, start + 8 + 30 + 4, 0xFFFF_FFF0);
+    expect(
+        "layer.laz",
+        &b,
+        &Default::default(),
+        "(laz)",
+        &["chunk 0 declares a layer of 4294967280 bytes", "at byte"],
+    );
+}
+
+/// Inputs the fuzz targets found (`fuzz/`), kept as files: each must give a clean error.
+#[test]
+fn fuzz_findings_stay_fixed() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz_regressions");
+    let mut n = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let format = path.extension().unwrap().to_str().unwrap().to_string();
+        let err = io::read_cloud(&path).expect_err("a fuzz finding must not read");
+        check(&path, &err, &format!("({format})"), &[]);
+        n += 1;
+    }
+    assert!(n >= 1, "the findings are in {}", dir.display());
+}
+
 // ---------------------------------------------------------------- XYZ and PTS
 
 #[test]

@@ -168,6 +168,9 @@ fn check_header<R: Read + Seek>(
             ));
         }
         check_chunk_table(source, start, len, points, name)?;
+        if let Some(items) = layered_items(source, &raw, name)? {
+            check_layered_chunks(source, start, len, points, &items, name)?;
+        }
     } else {
         let record = u64::from(raw.point_data_record_length);
         let need = points.saturating_mul(record).saturating_add(start);
@@ -300,6 +303,133 @@ fn check_chunk_table<R: Read + Seek>(
             format!("the chunk table claims {chunks} chunks for {points} points"),
             format!("byte {table}"),
         ));
+    }
+    Ok(())
+}
+
+/// The item list of a layered-chunked LAZ file (point formats 6 to 10), from its LASzip VLR;
+/// `None` for other compressors or when there is no such VLR (the decoder then says so).
+fn layered_items<R: Read + Seek>(
+    source: &mut R,
+    raw: &las::raw::Header,
+    name: &str,
+) -> Result<Option<Vec<(u16, u16)>>, ReadError> {
+    let io = |e: std::io::Error| ReadError::io(name, e);
+    let end = u64::from(raw.offset_to_point_data);
+    let mut at = u64::from(raw.header_size);
+    for _ in 0..raw.number_of_variable_length_records {
+        if at + 54 > end {
+            break;
+        }
+        let mut head = [0u8; 54];
+        source.seek(SeekFrom::Start(at)).map_err(io)?;
+        source.read_exact(&mut head).map_err(io)?;
+        let user = &head[2..18];
+        let record_id = u16::from_le_bytes([head[18], head[19]]);
+        let length = u64::from(u16::from_le_bytes([head[20], head[21]]));
+        if user.starts_with(b"laszip encoded") && record_id == 22204 {
+            if length < 34 || at + 54 + length > end {
+                return Ok(None);
+            }
+            let mut data = vec![0u8; length as usize];
+            source.read_exact(&mut data).map_err(io)?;
+            let compressor = u16::from_le_bytes([data[0], data[1]]);
+            let count = usize::from(u16::from_le_bytes([data[32], data[33]]));
+            if compressor != 3 || data.len() < 34 + 6 * count {
+                return Ok(None);
+            }
+            let items = (0..count)
+                .map(|i| {
+                    let o = 34 + 6 * i;
+                    (
+                        u16::from_le_bytes([data[o], data[o + 1]]),
+                        u16::from_le_bytes([data[o + 2], data[o + 3]]),
+                    )
+                })
+                .collect();
+            return Ok(Some(items));
+        }
+        at += 54 + length;
+    }
+    Ok(None)
+}
+
+/// Walks the chunks of a layered LAZ file, checking each layer's size against the file. The
+/// decoder allocates (and zeroes) a buffer of each declared size before reading it, so a damaged
+/// size of 4 GB would otherwise cost 4 GB. A chunk is its first point raw, the point count,
+/// one `u32` size per layer, then the layers, so the next chunk's place follows from the sizes.
+fn check_layered_chunks<R: Read + Seek>(
+    source: &mut R,
+    start: u64,
+    len: u64,
+    points: u64,
+    items: &[(u16, u16)],
+    name: &str,
+) -> Result<(), ReadError> {
+    let io = |e: std::io::Error| ReadError::io(name, e);
+    let mut layers = 0u64;
+    let mut first_point = 0u64;
+    for &(kind, size) in items {
+        layers += match kind {
+            10 => 9,               // Point14
+            11 | 13 => 1,          // RGB14, WavePacket14
+            12 => 2,               // RGBNIR14
+            14 => u64::from(size), // Byte14: a layer per byte
+            _ => return Ok(()),    // not layered: the decoder refuses it
+        };
+        first_point += u64::from(size);
+    }
+    let mut at = start + 8;
+    let mut left = points;
+    let mut chunk = 0u64;
+    let mut buf = vec![0u8; 4 + 4 * layers as usize];
+    while left > 0 {
+        let sizes_at = at + first_point;
+        if sizes_at + buf.len() as u64 > len {
+            return Err(ReadError::at(
+                name,
+                "laz",
+                format!("compressed chunk {chunk} ends inside its header: the file is truncated"),
+                format!("byte {at}"),
+            ));
+        }
+        source.seek(SeekFrom::Start(sizes_at)).map_err(io)?;
+        source.read_exact(&mut buf).map_err(io)?;
+        let word = |i: usize| {
+            u64::from(u32::from_le_bytes([
+                buf[4 * i],
+                buf[4 * i + 1],
+                buf[4 * i + 2],
+                buf[4 * i + 3],
+            ]))
+        };
+        let count = word(0);
+        if count == 0 {
+            return Err(ReadError::at(
+                name,
+                "laz",
+                format!("compressed chunk {chunk} holds no points, with {left} still to come"),
+                format!("byte {sizes_at}"),
+            ));
+        }
+        let mut end = sizes_at + buf.len() as u64;
+        for i in 1..=layers as usize {
+            end = end.saturating_add(word(i));
+            if end > len {
+                return Err(ReadError::at(
+                    name,
+                    "laz",
+                    format!(
+                        "compressed chunk {chunk} declares a layer of {} bytes, past the end of the {len}-byte file",
+                        word(i)
+                    ),
+                    format!("byte {}", sizes_at + 4 * i as u64),
+                ));
+            }
+        }
+        left = left.saturating_sub(count);
+        at = end;
+        chunk += 1;
     }
     Ok(())
 }
