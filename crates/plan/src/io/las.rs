@@ -168,8 +168,18 @@ fn check_header<R: Read + Seek>(
             ));
         }
         check_chunk_table(source, start, len, points, name)?;
-        if let Some(items) = layered_items(source, &raw, name)? {
-            check_layered_chunks(source, start, len, points, &items, name)?;
+        match laszip_items(source, &raw, name)? {
+            Some((_, items)) if items.is_empty() => {
+                return Err(ReadError::named(
+                    name,
+                    "laz",
+                    "the LASzip VLR lists no point items, so nothing can be decoded",
+                ))
+            }
+            Some((LAYERED_CHUNKED, items)) => {
+                check_layered_chunks(source, start, len, points, &items, name)?
+            }
+            _ => {}
         }
     } else {
         let record = u64::from(raw.point_data_record_length);
@@ -307,13 +317,16 @@ fn check_chunk_table<R: Read + Seek>(
     Ok(())
 }
 
-/// The item list of a layered-chunked LAZ file (point formats 6 to 10), from its LASzip VLR;
-/// `None` for other compressors or when there is no such VLR (the decoder then says so).
-fn layered_items<R: Read + Seek>(
+/// The LASzip compressor of point formats 6 to 10.
+const LAYERED_CHUNKED: u16 = 3;
+
+/// The compressor and the item list (type, size) of a LAZ file's LASzip VLR; `None` when there
+/// is no readable such VLR (the decoder then says so).
+fn laszip_items<R: Read + Seek>(
     source: &mut R,
     raw: &las::raw::Header,
     name: &str,
-) -> Result<Option<Vec<(u16, u16)>>, ReadError> {
+) -> Result<Option<(u16, Vec<(u16, u16)>)>, ReadError> {
     let io = |e: std::io::Error| ReadError::io(name, e);
     let end = u64::from(raw.offset_to_point_data);
     let mut at = u64::from(raw.header_size);
@@ -335,7 +348,7 @@ fn layered_items<R: Read + Seek>(
             source.read_exact(&mut data).map_err(io)?;
             let compressor = u16::from_le_bytes([data[0], data[1]]);
             let count = usize::from(u16::from_le_bytes([data[32], data[33]]));
-            if compressor != 3 || data.len() < 34 + 6 * count {
+            if data.len() < 34 + 6 * count {
                 return Ok(None);
             }
             let items = (0..count)
@@ -347,7 +360,7 @@ fn layered_items<R: Read + Seek>(
                     )
                 })
                 .collect();
-            return Ok(Some(items));
+            return Ok(Some((compressor, items)));
         }
         at += 54 + length;
     }
