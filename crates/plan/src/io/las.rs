@@ -167,16 +167,19 @@ fn check_header<R: Read + Seek>(
                 ),
             ));
         }
-        check_chunk_table(source, start, len, points, name)?;
-        match laszip_items(source, &raw, name)? {
-            Some((_, items)) if items.is_empty() => {
+        let laszip = laszip_items(source, &raw, name)?;
+        // Variable-sized chunks (chunk size 0 or u32::MAX) take their point counts from the table.
+        let variable = matches!(&laszip, Some((_, 0 | u32::MAX, _)));
+        check_chunk_table(source, start, len, points, variable, name)?;
+        match laszip {
+            Some((_, _, items)) if items.is_empty() => {
                 return Err(ReadError::named(
                     name,
                     "laz",
                     "the LASzip VLR lists no point items, so nothing can be decoded",
                 ))
             }
-            Some((LAYERED_CHUNKED, items)) => {
+            Some((LAYERED_CHUNKED, _, items)) => {
                 check_layered_chunks(source, start, len, points, &items, name)?
             }
             _ => {}
@@ -266,6 +269,7 @@ fn check_chunk_table<R: Read + Seek>(
     start: u64,
     len: u64,
     points: u64,
+    variable: bool,
     name: &str,
 ) -> Result<(), ReadError> {
     let io = |e: std::io::Error| ReadError::io(name, e);
@@ -314,19 +318,46 @@ fn check_chunk_table<R: Read + Seek>(
             format!("byte {table}"),
         ));
     }
+    if variable {
+        // The decoder indexes the table by chunk without checking: it must cover every point.
+        source.seek(SeekFrom::Start(table)).map_err(io)?;
+        let entries = laz::laszip::ChunkTable::read(source, true).map_err(|e| {
+            ReadError::at(
+                name,
+                "laz",
+                format!("the chunk table cannot be read ({e})"),
+                format!("byte {table}"),
+            )
+        })?;
+        let covered = entries
+            .as_ref()
+            .iter()
+            .fold(0u64, |n, e| n.saturating_add(e.point_count));
+        if covered < points {
+            return Err(ReadError::at(
+                name,
+                "laz",
+                format!(
+                    "the chunk table's {chunks} chunks hold {covered} points, fewer than the {points} the header claims"
+                ),
+                format!("byte {table}"),
+            ));
+        }
+    }
     Ok(())
 }
 
 /// The LASzip compressor of point formats 6 to 10.
 const LAYERED_CHUNKED: u16 = 3;
 
-/// The compressor and the item list (type, size) of a LAZ file's LASzip VLR; `None` when there
-/// is no readable such VLR (the decoder then says so).
+/// The compressor, chunk size and item list (type, size) of a LAZ file's LASzip VLR; `None`
+/// when there is no readable such VLR (the decoder then says so).
+#[allow(clippy::type_complexity)]
 fn laszip_items<R: Read + Seek>(
     source: &mut R,
     raw: &las::raw::Header,
     name: &str,
-) -> Result<Option<(u16, Vec<(u16, u16)>)>, ReadError> {
+) -> Result<Option<(u16, u32, Vec<(u16, u16)>)>, ReadError> {
     let io = |e: std::io::Error| ReadError::io(name, e);
     let end = u64::from(raw.offset_to_point_data);
     let mut at = u64::from(raw.header_size);
@@ -360,7 +391,8 @@ fn laszip_items<R: Read + Seek>(
                     )
                 })
                 .collect();
-            return Ok(Some((compressor, items)));
+            let chunk_size = u32::from_le_bytes([data[12], data[13], data[14], data[15]]);
+            return Ok(Some((compressor, chunk_size, items)));
         }
         at += 54 + length;
     }
