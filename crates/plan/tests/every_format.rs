@@ -32,7 +32,7 @@ fn office() -> PointCloud {
     let sim = simulate(
         BuildingKind::Office3Story,
         &ScanOptions {
-            points: 1_500_000,
+            points: 400_000,
             seed: 31,
             noise: 0.002,
             ..Default::default()
