@@ -220,7 +220,7 @@ fn check_header<R: Read + Seek>(
                 format!("byte {at}"),
             ));
         }
-        if at + 60 + body > len {
+        if at.saturating_add(60).saturating_add(body) > len {
             return Err(ReadError::at(
                 name,
                 format,
