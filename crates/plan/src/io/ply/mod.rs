@@ -376,26 +376,27 @@ impl<R: BufRead> Body<'_, R> {
             values.clear();
             let mut tokens = self.text.split_ascii_whitespace();
             for p in &vertex.properties {
-                let mut next = |what: &str| -> Result<f64, ReadError> {
+                // `what` names the value only when there is an error: no formatting per value.
+                let mut next = |what: &dyn Fn() -> String| -> Result<f64, ReadError> {
                     let token = tokens.next().ok_or_else(|| {
                         invalid(
                             self.path,
-                            format!("vertex {k}: the line ends before {what}"),
+                            format!("vertex {k}: the line ends before {}", what()),
                             Some(format!("line {}", self.line)),
                         )
                     })?;
                     parse_number(token).ok_or_else(|| {
                         invalid(
                             self.path,
-                            format!("vertex {k}: {what} is not a number: {token:?}"),
+                            format!("vertex {k}: {} is not a number: {token:?}", what()),
                             Some(format!("line {}", self.line)),
                         )
                     })
                 };
                 match p.kind {
-                    Kind::Scalar(_) => values.push(next(&format!("property `{}`", p.name))?),
+                    Kind::Scalar(_) => values.push(next(&|| format!("property `{}`", p.name))?),
                     Kind::List { .. } => {
-                        let n = next(&format!("the length of list `{}`", p.name))?;
+                        let n = next(&|| format!("the length of list `{}`", p.name))?;
                         if !(n >= 0.0 && n.fract() == 0.0 && n <= 1.0e6) {
                             return Err(invalid(
                                 self.path,
@@ -404,7 +405,7 @@ impl<R: BufRead> Body<'_, R> {
                             ));
                         }
                         for _ in 0..n as usize {
-                            next(&format!("an item of list `{}`", p.name))?;
+                            next(&|| format!("an item of list `{}`", p.name))?;
                         }
                         values.push(f64::NAN);
                     }
