@@ -271,7 +271,7 @@ fn pose_of(pc: &e57::PointCloud, index: u32) -> Result<(u32, [f64; 3], [f64; 4])
     }
     let q = [q.w, q.x, q.y, q.z];
     let norm = q.iter().map(|c| c * c).sum::<f64>().sqrt();
-    if !((norm - 1.0).abs() <= QUATERNION_TOLERANCE) {
+    if norm.is_nan() || (norm - 1.0).abs() > QUATERNION_TOLERANCE {
         return Err(format!(
             "the pose's rotation quaternion {q:?} has norm {norm}, not 1"
         ));

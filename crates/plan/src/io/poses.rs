@@ -455,7 +455,7 @@ fn quaternion_of(entry: &Value, at: &dyn Fn() -> String) -> Result<[f64; 4], Pos
 
 fn unit_quaternion(q: [f64; 4], at: &dyn Fn() -> String) -> Result<[f64; 4], PosesError> {
     let norm = q.iter().map(|c| c * c).sum::<f64>().sqrt();
-    if !((norm - 1.0).abs() <= QUATERNION_TOLERANCE) {
+    if norm.is_nan() || (norm - 1.0).abs() > QUATERNION_TOLERANCE {
         return Err(PosesError::Invalid(format!(
             "{}: `quaternion` has norm {norm:.6}, not 1 (a rotation's quaternion [w, x, y, z] is unit)",
             at()
