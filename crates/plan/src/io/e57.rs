@@ -8,13 +8,18 @@
 use std::error::Error as _;
 use std::io::{Read, Seek, SeekFrom};
 
-use e57::{CartesianCoordinate, E57Reader, RecordName};
+use e57::{CartesianCoordinate, E57Reader, RecordDataType, RecordName};
 
 use super::assemble::CloudBuilder;
+use super::poses::QUATERNION_TOLERANCE;
 use super::{ReadError, ReadOptions};
 use crate::cloud::{PointCloud, ScanPose, Viewpoints};
 
 const FORMAT: &str = "e57";
+
+/// The `e57` crate parses the XML section whole (it refuses more than 50 MiB); real sections
+/// are kilobytes to a few megabytes even with hundreds of scans.
+const MAX_XML: u64 = 50 << 20;
 
 /// Reads an E57 file of `len` bytes.
 pub fn read_e57<R: Read + Seek>(
@@ -29,7 +34,15 @@ pub fn read_e57<R: Read + Seek>(
     let mut total = 0u64;
     for (i, pc) in scans.iter().enumerate() {
         check_scan(pc, i, len, name)?;
-        total += pc.records;
+        total = total.saturating_add(pc.records);
+    }
+    // Each scan's count fits the file, but the scans share it.
+    if total > len.saturating_mul(8) {
+        return Err(ReadError::named(
+            name,
+            FORMAT,
+            format!("the scans claim {total} points in all, more than a {len}-byte file can hold"),
+        ));
     }
     let mut b = CloudBuilder::new(FORMAT, total as usize, None, false);
     let mut poses = Vec::with_capacity(scans.len());
@@ -38,11 +51,15 @@ pub fn read_e57<R: Read + Seek>(
         let slot = b
             .scan_slot(i as u32)
             .map_err(|w| ReadError::named(name, FORMAT, w))?;
-        poses.push(pose_of(pc, i as u32));
+        let pose = pose_of(pc, i as u32)
+            .map_err(|why| ReadError::at(name, FORMAT, why, format!("scan {i}")))?;
+        let (r, t) = (rotation_matrix(pose.2), pose.1);
+        poses.push(pose);
         let mut points = reader
             .pointcloud_simple(pc)
             .map_err(|e| ReadError::at(name, FORMAT, why(&e), format!("scan {i}")))?;
-        points.apply_pose(true);
+        // The pose is applied here, with the renormalised rotation.
+        points.apply_pose(false);
         points.spherical_to_cartesian(true);
         // Colour and intensity are not used downstream; skip their conversions.
         points.intensity_to_color(false);
@@ -53,7 +70,10 @@ pub fn read_e57<R: Read + Seek>(
                 ReadError::at(name, FORMAT, why(&e), format!("scan {i}, point {k}"))
             })?;
             match p.cartesian {
-                CartesianCoordinate::Valid { x, y, z } => b.push([x, y, z], Some(slot), None),
+                CartesianCoordinate::Valid { x, y, z } => {
+                    let world = [0, 1, 2].map(|k| r[k][0] * x + r[k][1] * y + r[k][2] * z + t[k]);
+                    b.push(world, Some(slot), None)
+                }
                 _ => invalid += 1,
             }
         }
@@ -133,6 +153,22 @@ fn check_header<R: Read + Seek>(source: &mut R, len: u64, name: &str) -> Result<
         ));
     }
     let (phys_len, xml_at, xml_len, page) = (u64_at(16), u64_at(24), u64_at(32), u64_at(40));
+    if xml_len > MAX_XML {
+        return Err(ReadError::at(
+            name,
+            FORMAT,
+            format!("the XML section claims {xml_len} bytes, more than the {MAX_XML} this reader parses"),
+            "byte 32",
+        ));
+    }
+    if xml_len == 0 {
+        return Err(ReadError::at(
+            name,
+            FORMAT,
+            "the XML section is empty",
+            "byte 32",
+        ));
+    }
     if page != 1024 {
         return Err(ReadError::at(
             name,
@@ -179,12 +215,21 @@ fn check_scan(pc: &e57::PointCloud, i: usize, len: u64, name: &str) -> Result<()
             format!("scan {i}"),
         ));
     }
-    if pc.records > len.saturating_mul(8) {
+    let bits: u64 = pc.prototype.iter().map(|r| record_bits(&r.data_type)).sum();
+    if bits == 0 && pc.records > 0 {
+        return Err(ReadError::at(
+            name,
+            FORMAT,
+            "every field of the point prototype is constant (zero bits a point), so the point count cannot be checked",
+            format!("scan {i}"),
+        ));
+    }
+    if pc.records > len.saturating_mul(8) / bits.max(1) {
         return Err(ReadError::at(
             name,
             FORMAT,
             format!(
-                "{} points claimed, more than a {len}-byte file can hold",
+                "{} points of {bits} bits claimed, more than a {len}-byte file can hold",
                 pc.records
             ),
             format!("scan {i}"),
@@ -193,15 +238,67 @@ fn check_scan(pc: &e57::PointCloud, i: usize, len: u64, name: &str) -> Result<()
     Ok(())
 }
 
-/// A scan's index, scanner origin (world) and rotation `[w, x, y, z]`.
-fn pose_of(pc: &e57::PointCloud, index: u32) -> (u32, [f64; 3], [f64; 4]) {
-    match &pc.transform {
-        Some(t) => {
-            let (p, q) = (&t.translation, &t.rotation);
-            (index, [p.x, p.y, p.z], [q.w, q.x, q.y, q.z])
+/// Bits a value of this type takes in a compressed vector (as E57 packs them).
+fn record_bits(t: &RecordDataType) -> u64 {
+    let int_bits = |min: i64, max: i64| {
+        let range = i128::from(max) - i128::from(min);
+        if range > 0 {
+            u64::from(range.ilog2()) + 1
+        } else {
+            0
         }
-        None => (index, [0.0; 3], [1.0, 0.0, 0.0, 0.0]),
+    };
+    match *t {
+        RecordDataType::Single { .. } => 32,
+        RecordDataType::Double { .. } => 64,
+        RecordDataType::ScaledInteger { min, max, .. } | RecordDataType::Integer { min, max } => {
+            int_bits(min, max)
+        }
     }
+}
+
+/// A scan's index, scanner origin (world) and rotation `[w, x, y, z]`. The rotation must be a
+/// unit quaternion (within the sidecars' tolerance, then renormalised): the crate applies it
+/// as given, and any other length would scale the scan.
+fn pose_of(pc: &e57::PointCloud, index: u32) -> Result<(u32, [f64; 3], [f64; 4]), String> {
+    let Some(t) = &pc.transform else {
+        return Ok((index, [0.0; 3], [1.0, 0.0, 0.0, 0.0]));
+    };
+    let (p, q) = (&t.translation, &t.rotation);
+    let position = [p.x, p.y, p.z];
+    if !position.iter().all(|c| c.is_finite()) {
+        return Err(format!("the pose's translation {position:?} is not finite"));
+    }
+    let q = [q.w, q.x, q.y, q.z];
+    let norm = q.iter().map(|c| c * c).sum::<f64>().sqrt();
+    if norm.is_nan() || (norm - 1.0).abs() > QUATERNION_TOLERANCE {
+        return Err(format!(
+            "the pose's rotation quaternion {q:?} has norm {norm}, not 1"
+        ));
+    }
+    Ok((index, position, q.map(|c| c / norm)))
+}
+
+/// The rotation matrix (rows) of a unit quaternion `[w, x, y, z]`.
+fn rotation_matrix(q: [f64; 4]) -> [[f64; 3]; 3] {
+    let [w, x, y, z] = q;
+    [
+        [
+            w * w + x * x - y * y - z * z,
+            2.0 * (x * y - w * z),
+            2.0 * (x * z + w * y),
+        ],
+        [
+            2.0 * (x * y + w * z),
+            w * w + y * y - x * x - z * z,
+            2.0 * (y * z - w * x),
+        ],
+        [
+            2.0 * (x * z - w * y),
+            2.0 * (y * z + w * x),
+            w * w + z * z - x * x - y * y,
+        ],
+    ]
 }
 
 fn describe(scans: &[e57::PointCloud]) -> String {

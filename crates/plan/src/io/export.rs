@@ -59,6 +59,8 @@ fn rotate(q: [f64; 4], v: [f64; 3], inverse: bool) -> [f64; 3] {
 
 /// Writes E57: one Data3D per scan slot, points in scanner-local coordinates, the pose in the
 /// file. Without static poses the whole cloud is one scan with the identity pose.
+/// Coordinates are doubles, so applying the pose on reading gives back the very same `f32`
+/// points (single precision would move them by rounding).
 pub fn write_e57(path: &Path, cloud: &PointCloud) -> Result<(), ExportError> {
     let fe = fmt_err(path);
     let e = |e: e57::Error| fe(e.to_string());
@@ -72,9 +74,9 @@ pub fn write_e57(path: &Path, cloud: &PointCloud) -> Result<(), ExportError> {
     };
     let mut writer = e57::E57Writer::from_file(path, "asbuilt-export").map_err(e)?;
     let prototype = vec![
-        e57::Record::CARTESIAN_X_F32,
-        e57::Record::CARTESIAN_Y_F32,
-        e57::Record::CARTESIAN_Z_F32,
+        e57::Record::CARTESIAN_X_F64,
+        e57::Record::CARTESIAN_Y_F64,
+        e57::Record::CARTESIAN_Z_F64,
     ];
     for (slot, pose) in poses.iter().enumerate() {
         let mut pc = writer
@@ -101,7 +103,7 @@ pub fn write_e57(path: &Path, cloud: &PointCloud) -> Result<(), ExportError> {
             }
             let w = world(cloud, i);
             let local = rotate(q, [0, 1, 2].map(|k| w[k] - t[k]), true);
-            pc.add_point(local.map(|c| e57::RecordValue::Single(c as f32)).to_vec())
+            pc.add_point(local.map(e57::RecordValue::Double).to_vec())
                 .map_err(e)?;
         }
         pc.finalize().map_err(e)?;

@@ -18,6 +18,9 @@ const CHUNK: u64 = 64 * 1024;
 /// No LAZ file holds more points per byte than this; a header that claims more is corrupt.
 const MAX_LAZ_POINTS_PER_BYTE: u64 = 64;
 
+/// Scanner LAZ files take 3 to 10 bytes a point; reserve for no more than this many per byte.
+const LAZ_RESERVE_POINTS_PER_BYTE: u64 = 1;
+
 /// Reads LAS or LAZ from a seekable source of `len` bytes.
 pub fn read_las<R>(
     mut source: R,
@@ -34,20 +37,42 @@ where
     let mut reader = Reader::new(source).map_err(err)?;
     let header = reader.header().clone();
     let count = header.number_of_points();
-    // The first point chooses the local origin: header bounds may be stale or zero.
-    let mut b = CloudBuilder::new(fname, count as usize, None, options.keep_time);
+    // The first point chooses the local origin: header bounds may be stale or zero. LAS counts
+    // are checked exactly against the file's size; a LAZ count only loosely, so its reservation
+    // is capped and the array grows (by a quarter at a time) past that.
+    let reserve = match fname {
+        "laz" => count.min(len.saturating_mul(LAZ_RESERVE_POINTS_PER_BYTE)),
+        _ => count,
+    };
+    let mut b = CloudBuilder::new(fname, reserve as usize, None, options.keep_time);
     let guard = BoundsGuard::new(&header);
     let mut pd = PointDataBuilder::new().for_header(&header).build();
     let mut done = 0u64;
     loop {
-        let n = reader.fill_points(CHUNK, &mut pd).map_err(|e| {
-            ReadError::at(
-                name,
-                fname,
-                e.to_string(),
-                format!("point {done} of {count}"),
-            )
-        })?;
+        let at = || {
+            let end = (done + CHUNK).min(count).max(done + 1) - 1;
+            format!("points {done} to {end} of {count}")
+        };
+        // The LAZ decoder asserts on some damaged chunks; catching the panic here, rather than
+        // in the reader thread, tells the user where the damage starts.
+        let filled = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            reader.fill_points(CHUNK, &mut pd)
+        }));
+        let n = match filled {
+            Ok(Ok(n)) => n,
+            Ok(Err(e)) => return Err(ReadError::at(name, fname, e.to_string(), at())),
+            Err(panic) => {
+                return Err(ReadError::at(
+                    name,
+                    fname,
+                    format!(
+                        "the decoder failed ({}): the point data is damaged",
+                        super::panic_text(&panic)
+                    ),
+                    at(),
+                ))
+            }
+        };
         if n == 0 {
             break;
         }
@@ -117,6 +142,7 @@ fn check_header<R: Read + Seek>(
     })?;
     let compressed = raw.point_data_record_format & 0xC0 != 0;
     let format = if compressed { "laz" } else { "las" };
+    check_transforms(&raw, name, format)?;
     let legacy = u64::from(raw.number_of_point_records);
     let points = match raw.large_file {
         Some(lf) if legacy == 0 => lf.number_of_point_records,
@@ -141,7 +167,23 @@ fn check_header<R: Read + Seek>(
                 ),
             ));
         }
-        check_chunk_table(source, start, len, points, name)?;
+        let laszip = laszip_items(source, &raw, name)?;
+        // Variable-sized chunks (chunk size 0 or u32::MAX) take their point counts from the table.
+        let variable = matches!(&laszip, Some((_, 0 | u32::MAX, _)));
+        check_chunk_table(source, start, len, points, variable, name)?;
+        match laszip {
+            Some((_, _, items)) if items.is_empty() => {
+                return Err(ReadError::named(
+                    name,
+                    "laz",
+                    "the LASzip VLR lists no point items, so nothing can be decoded",
+                ))
+            }
+            Some((LAYERED_CHUNKED, _, items)) => {
+                check_layered_chunks(source, start, len, points, &items, name)?
+            }
+            _ => {}
+        }
     } else {
         let record = u64::from(raw.point_data_record_length);
         let need = points.saturating_mul(record).saturating_add(start);
@@ -168,7 +210,17 @@ fn check_header<R: Read + Seek>(
             source.read_exact(&mut size).map_err(io)?;
         }
         let body = u64::from_le_bytes(size);
-        if !fits || at + 60 + body > len {
+        if !fits {
+            return Err(ReadError::at(
+                name,
+                format,
+                format!(
+                    "the first extended VLR's 60-byte header does not fit in the {len}-byte file"
+                ),
+                format!("byte {at}"),
+            ));
+        }
+        if at.saturating_add(60).saturating_add(body) > len {
             return Err(ReadError::at(
                 name,
                 format,
@@ -181,12 +233,43 @@ fn check_header<R: Read + Seek>(
     Ok(HeaderCheck { format })
 }
 
+/// Scale factors must be finite and non-zero and offsets finite, or every point is garbage.
+fn check_transforms(
+    raw: &las::raw::Header,
+    name: &str,
+    format: &'static str,
+) -> Result<(), ReadError> {
+    let fields = [
+        ("x scale factor", raw.x_scale_factor, 131, true),
+        ("y scale factor", raw.y_scale_factor, 139, true),
+        ("z scale factor", raw.z_scale_factor, 147, true),
+        ("x offset", raw.x_offset, 155, false),
+        ("y offset", raw.y_offset, 163, false),
+        ("z offset", raw.z_offset, 171, false),
+    ];
+    for (what, v, at, scale) in fields {
+        if !v.is_finite() || (scale && v == 0.0) {
+            return Err(ReadError::at(
+                name,
+                format,
+                format!(
+                    "the {what} is {v}; it must be a finite{} number",
+                    if scale { ", non-zero" } else { "" }
+                ),
+                format!("byte {at}"),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// LAZ keeps a chunk table whose entry count the decoder allocates from.
 fn check_chunk_table<R: Read + Seek>(
     source: &mut R,
     start: u64,
     len: u64,
     points: u64,
+    variable: bool,
     name: &str,
 ) -> Result<(), ReadError> {
     let io = |e: std::io::Error| ReadError::io(name, e);
@@ -234,6 +317,164 @@ fn check_chunk_table<R: Read + Seek>(
             format!("the chunk table claims {chunks} chunks for {points} points"),
             format!("byte {table}"),
         ));
+    }
+    if variable {
+        // The decoder indexes the table by chunk without checking: it must cover every point.
+        source.seek(SeekFrom::Start(table)).map_err(io)?;
+        let entries = laz::laszip::ChunkTable::read(source, true).map_err(|e| {
+            ReadError::at(
+                name,
+                "laz",
+                format!("the chunk table cannot be read ({e})"),
+                format!("byte {table}"),
+            )
+        })?;
+        let covered = entries
+            .as_ref()
+            .iter()
+            .fold(0u64, |n, e| n.saturating_add(e.point_count));
+        if covered < points {
+            return Err(ReadError::at(
+                name,
+                "laz",
+                format!(
+                    "the chunk table's {chunks} chunks hold {covered} points, fewer than the {points} the header claims"
+                ),
+                format!("byte {table}"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The LASzip compressor of point formats 6 to 10.
+const LAYERED_CHUNKED: u16 = 3;
+
+/// The compressor, chunk size and item list (type, size) of a LAZ file's LASzip VLR; `None`
+/// when there is no readable such VLR (the decoder then says so).
+#[allow(clippy::type_complexity)]
+fn laszip_items<R: Read + Seek>(
+    source: &mut R,
+    raw: &las::raw::Header,
+    name: &str,
+) -> Result<Option<(u16, u32, Vec<(u16, u16)>)>, ReadError> {
+    let io = |e: std::io::Error| ReadError::io(name, e);
+    let end = u64::from(raw.offset_to_point_data);
+    let mut at = u64::from(raw.header_size);
+    for _ in 0..raw.number_of_variable_length_records {
+        if at + 54 > end {
+            break;
+        }
+        let mut head = [0u8; 54];
+        source.seek(SeekFrom::Start(at)).map_err(io)?;
+        source.read_exact(&mut head).map_err(io)?;
+        let user = &head[2..18];
+        let record_id = u16::from_le_bytes([head[18], head[19]]);
+        let length = u64::from(u16::from_le_bytes([head[20], head[21]]));
+        if user.starts_with(b"laszip encoded") && record_id == 22204 {
+            if length < 34 || at + 54 + length > end {
+                return Ok(None);
+            }
+            let mut data = vec![0u8; length as usize];
+            source.read_exact(&mut data).map_err(io)?;
+            let compressor = u16::from_le_bytes([data[0], data[1]]);
+            let count = usize::from(u16::from_le_bytes([data[32], data[33]]));
+            if data.len() < 34 + 6 * count {
+                return Ok(None);
+            }
+            let items = (0..count)
+                .map(|i| {
+                    let o = 34 + 6 * i;
+                    (
+                        u16::from_le_bytes([data[o], data[o + 1]]),
+                        u16::from_le_bytes([data[o + 2], data[o + 3]]),
+                    )
+                })
+                .collect();
+            let chunk_size = u32::from_le_bytes([data[12], data[13], data[14], data[15]]);
+            return Ok(Some((compressor, chunk_size, items)));
+        }
+        at += 54 + length;
+    }
+    Ok(None)
+}
+
+/// Walks the chunks of a layered LAZ file, checking each layer's size against the file. The
+/// decoder allocates (and zeroes) a buffer of each declared size before reading it, so a damaged
+/// size of 4 GB would otherwise cost 4 GB. A chunk is its first point raw, the point count,
+/// one `u32` size per layer, then the layers, so the next chunk's place follows from the sizes.
+fn check_layered_chunks<R: Read + Seek>(
+    source: &mut R,
+    start: u64,
+    len: u64,
+    points: u64,
+    items: &[(u16, u16)],
+    name: &str,
+) -> Result<(), ReadError> {
+    let io = |e: std::io::Error| ReadError::io(name, e);
+    let mut layers = 0u64;
+    let mut first_point = 0u64;
+    for &(kind, size) in items {
+        layers += match kind {
+            10 => 9,               // Point14
+            11 | 13 => 1,          // RGB14, WavePacket14
+            12 => 2,               // RGBNIR14
+            14 => u64::from(size), // Byte14: a layer per byte
+            _ => return Ok(()),    // not layered: the decoder refuses it
+        };
+        first_point += u64::from(size);
+    }
+    let mut at = start + 8;
+    let mut left = points;
+    let mut chunk = 0u64;
+    let mut buf = vec![0u8; 4 + 4 * layers as usize];
+    while left > 0 {
+        let sizes_at = at + first_point;
+        if sizes_at + buf.len() as u64 > len {
+            return Err(ReadError::at(
+                name,
+                "laz",
+                format!("compressed chunk {chunk} ends inside its header: the file is truncated"),
+                format!("byte {at}"),
+            ));
+        }
+        source.seek(SeekFrom::Start(sizes_at)).map_err(io)?;
+        source.read_exact(&mut buf).map_err(io)?;
+        let word = |i: usize| {
+            u64::from(u32::from_le_bytes([
+                buf[4 * i],
+                buf[4 * i + 1],
+                buf[4 * i + 2],
+                buf[4 * i + 3],
+            ]))
+        };
+        let count = word(0);
+        if count == 0 {
+            return Err(ReadError::at(
+                name,
+                "laz",
+                format!("compressed chunk {chunk} holds no points, with {left} still to come"),
+                format!("byte {sizes_at}"),
+            ));
+        }
+        let mut end = sizes_at + buf.len() as u64;
+        for i in 1..=layers as usize {
+            end = end.saturating_add(word(i));
+            if end > len {
+                return Err(ReadError::at(
+                    name,
+                    "laz",
+                    format!(
+                        "compressed chunk {chunk} declares a layer of {} bytes, past the end of the {len}-byte file",
+                        word(i)
+                    ),
+                    format!("byte {}", sizes_at + 4 * i as u64),
+                ));
+            }
+        }
+        left = left.saturating_sub(count);
+        at = end;
+        chunk += 1;
     }
     Ok(())
 }

@@ -151,7 +151,7 @@ pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<PointCloud,
 }
 
 /// Reads a point cloud from any seekable source (an upload held in memory, say); `name` is
-/// used in errors. PLY is read from files only.
+/// used in errors.
 pub fn read_cloud_from<R>(
     mut source: R,
     name: &str,
@@ -162,13 +162,6 @@ where
 {
     let head = sniff(&mut source, name)?;
     let format = choose_format(name, &head, options)?;
-    if format == Format::Ply {
-        return Err(ReadError::named(
-            name,
-            "ply",
-            "PLY is read from files only; save it to a file first",
-        ));
-    }
     let cloud = read_stream(source, name, format, options)?;
     finish(cloud, name, options)
 }
@@ -196,9 +189,17 @@ fn choose_format(name: &str, head: &[u8], options: &ReadOptions) -> Result<Forma
     }
     match options.format {
         Some(f) => Ok(f),
-        None => detect::detect(head).map_err(|why| ReadError::UnknownFormat {
-            path: name.into(),
-            why,
+        None => detect::detect(head).map_err(|why| {
+            // Say what the name promised, so a wrong or damaged file is easy to place.
+            let ext = Path::new(name).extension().and_then(|e| e.to_str());
+            let why = match ext {
+                Some(e) if e.parse::<Format>().is_ok() => format!("{why}; the name says .{e}"),
+                _ => why,
+            };
+            ReadError::UnknownFormat {
+                path: name.into(),
+                why,
+            }
         }),
     }
 }
@@ -229,7 +230,10 @@ where
             let name = owned_name.as_str();
             match format {
                 Format::E57 => e57::read_e57(source, len, name, &opts),
-                Format::Las | Format::Laz => las::read_las(source, len, name, &opts),
+                // The LAZ decoder reads a byte at a time: buffer it.
+                Format::Las | Format::Laz => {
+                    las::read_las(BufReader::with_capacity(1 << 16, source), len, name, &opts)
+                }
                 Format::Xyz | Format::Pts => xyz::read_xyz(
                     BufReader::with_capacity(1 << 20, source),
                     len,
@@ -237,22 +241,29 @@ where
                     format,
                     &opts,
                 ),
-                Format::Ply => Err(ReadError::named(name, "ply", "PLY needs a file path")),
+                Format::Ply => ply::read_ply_from(source, len, name),
             }
         })
         .map_err(|e| ReadError::io(name, e))?;
     worker.join().unwrap_or_else(|panic| {
-        let what = panic
-            .downcast_ref::<&str>()
-            .map(|s| s.to_string())
-            .or_else(|| panic.downcast_ref::<String>().cloned())
-            .unwrap_or_default();
         Err(ReadError::named(
             name,
             format.name(),
-            format!("the decoder failed ({what}); the file is probably corrupt"),
+            format!(
+                "the decoder failed ({}); the file is probably corrupt",
+                panic_text(&panic)
+            ),
         ))
     })
+}
+
+/// A caught panic's message.
+fn panic_text(panic: &Box<dyn std::any::Any + Send>) -> String {
+    panic
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_default()
 }
 
 /// Applies the scale, records the units and checks the reader's invariants.

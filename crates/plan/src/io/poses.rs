@@ -10,6 +10,7 @@ use std::path::Path;
 
 use serde_json::Value;
 
+use super::ReadError;
 use crate::cloud::{PointCloud, ScanPose, TrajectorySample, Viewpoints};
 
 /// How far a quaternion's norm may stray from 1 before it is an error rather than rounding.
@@ -79,21 +80,41 @@ pub fn parse_poses(text: &str) -> Result<Vec<ScanPose>, PosesError> {
 }
 
 /// Parses `{"samples": [{"t", "position", "quaternion"}]}` (world frame). Times must increase.
+///
+/// Trajectories can be long, so they are deserialised straight into typed samples (about 64
+/// bytes each) rather than through a JSON tree; type errors name the line and column.
 pub fn parse_trajectory(text: &str) -> Result<Vec<TrajectorySample>, PosesError> {
-    let entries = top_level_array(text, "samples")?;
-    if entries.is_empty() {
+    let doc: TrajectoryDoc =
+        serde_json::from_str(text).map_err(|e| PosesError::Json(e.to_string()))?;
+    check_trajectory(doc.samples)
+}
+
+#[derive(serde::Deserialize)]
+struct TrajectoryDoc {
+    samples: Vec<RawSample>,
+}
+
+#[derive(serde::Deserialize)]
+struct RawSample {
+    t: f64,
+    position: [f64; 3],
+    quaternion: [f64; 4],
+}
+
+fn check_trajectory(raw: Vec<RawSample>) -> Result<Vec<TrajectorySample>, PosesError> {
+    if raw.is_empty() {
         return Err(PosesError::Invalid("the trajectory has no samples".into()));
     }
-    if entries.len() > MAX_TRAJECTORY_SAMPLES {
+    if raw.len() > MAX_TRAJECTORY_SAMPLES {
         return Err(PosesError::Invalid(format!(
             "{} trajectory samples, more than the limit of {MAX_TRAJECTORY_SAMPLES}",
-            entries.len()
+            raw.len()
         )));
     }
-    let mut samples: Vec<TrajectorySample> = Vec::with_capacity(entries.len());
-    for (k, entry) in entries.iter().enumerate() {
+    let mut samples: Vec<TrajectorySample> = Vec::with_capacity(raw.len());
+    for (k, r) in raw.into_iter().enumerate() {
         let at = || format!("samples[{k}]");
-        let t = number(field(entry, "t", at)?, &|| format!("{}.t", at()))?;
+        let t = finite(r.t, &|| format!("{}.t", at()))?;
         if let Some(prev) = samples.last() {
             if t <= prev.t {
                 return Err(PosesError::Invalid(format!(
@@ -103,8 +124,11 @@ pub fn parse_trajectory(text: &str) -> Result<Vec<TrajectorySample>, PosesError>
                 )));
             }
         }
-        let position = position_of(entry, &at)?;
-        let quaternion = quaternion_of(entry, &at)?;
+        let mut position = [0.0; 3];
+        for (i, c) in r.position.into_iter().enumerate() {
+            position[i] = finite(c, &|| format!("{}.position[{i}]", at()))?;
+        }
+        let quaternion = unit_quaternion(r.quaternion, &at)?;
         samples.push(TrajectorySample {
             t,
             position,
@@ -224,6 +248,72 @@ pub fn position_at(samples: &[TrajectorySample], t: f64) -> [f64; 3] {
     std::array::from_fn(|i| a.position[i] + f * (b.position[i] - a.position[i]))
 }
 
+/// A static pose sidecar larger than this is no sidecar: 65,536 scans take about 10 MB.
+pub const MAX_POSES_BYTES: u64 = 64 << 20;
+/// A trajectory sidecar larger than this is refused (about 9 M samples).
+pub const MAX_TRAJECTORY_BYTES: u64 = 1 << 30;
+
+/// Reads and parses a static pose sidecar; errors name the file.
+pub fn read_poses(path: &Path) -> Result<Vec<ScanPose>, ReadError> {
+    let text = read_sidecar(path, MAX_POSES_BYTES)?;
+    parse_poses(&text).map_err(|e| sidecar_error(path, e))
+}
+
+/// Reads and parses a trajectory sidecar, streaming from the file; errors name the file.
+pub fn read_trajectory(path: &Path) -> Result<Vec<TrajectorySample>, ReadError> {
+    let file = open_sidecar(path, MAX_TRAJECTORY_BYTES)?;
+    let doc: TrajectoryDoc = serde_json::from_reader(std::io::BufReader::new(file))
+        .map_err(|e| sidecar_error(path, PosesError::Json(e.to_string())))?;
+    check_trajectory(doc.samples).map_err(|e| sidecar_error(path, e))
+}
+
+/// Reads a static pose sidecar and attaches it to `cloud` (see [`attach_poses`]).
+pub fn load_poses(cloud: &mut PointCloud, path: &Path) -> Result<(), ReadError> {
+    let poses = read_poses(path)?;
+    attach_poses(cloud, poses).map_err(|e| sidecar_error(path, e))
+}
+
+/// Reads a trajectory sidecar and attaches it to `cloud` (see [`attach_trajectory`]).
+pub fn load_trajectory(cloud: &mut PointCloud, path: &Path) -> Result<(), ReadError> {
+    let samples = read_trajectory(path)?;
+    attach_trajectory(cloud, samples).map_err(|e| sidecar_error(path, e))
+}
+
+fn sidecar_error(path: &Path, e: PosesError) -> ReadError {
+    ReadError::Poses {
+        path: path.display().to_string(),
+        why: e.to_string(),
+    }
+}
+
+fn open_sidecar(path: &Path, max: u64) -> Result<std::fs::File, ReadError> {
+    let name = path.display().to_string();
+    let file = std::fs::File::open(path).map_err(|e| ReadError::io(&name, e))?;
+    let len = file.metadata().map_err(|e| ReadError::io(&name, e))?.len();
+    if len > max {
+        return Err(ReadError::Poses {
+            path: name,
+            why: format!("the file has {len} bytes, more than the {max} a sidecar may have"),
+        });
+    }
+    Ok(file)
+}
+
+fn read_sidecar(path: &Path, max: u64) -> Result<String, ReadError> {
+    use std::io::Read;
+    let mut text = String::new();
+    open_sidecar(path, max)?
+        .take(max)
+        .read_to_string(&mut text)
+        .map_err(|e| match e.kind() {
+            std::io::ErrorKind::InvalidData => {
+                sidecar_error(path, PosesError::Json("the file is not UTF-8 text".into()))
+            }
+            _ => ReadError::io(&path.display().to_string(), e),
+        })?;
+    Ok(text)
+}
+
 /// Static poses as a §2 sidecar, in world coordinates (local + `origin`).
 pub fn poses_to_json(poses: &[ScanPose], origin: [f64; 3]) -> String {
     let scans: Vec<Value> = poses
@@ -324,6 +414,17 @@ fn number(value: &Value, at: &dyn Fn() -> String) -> Result<f64, PosesError> {
         })
 }
 
+fn finite(v: f64, at: &dyn Fn() -> String) -> Result<f64, PosesError> {
+    if v.is_finite() && v.abs() <= MAX_COORDINATE {
+        Ok(v)
+    } else {
+        Err(PosesError::Invalid(format!(
+            "{}: expected a finite number of at most {MAX_COORDINATE:e}, not {v}",
+            at()
+        )))
+    }
+}
+
 fn numbers<const N: usize>(
     entry: &Value,
     name: &str,
@@ -349,9 +450,12 @@ fn position_of(entry: &Value, at: &dyn Fn() -> String) -> Result<[f64; 3], Poses
 
 /// A `[w, x, y, z]` unit quaternion, renormalised when within tolerance of unit length.
 fn quaternion_of(entry: &Value, at: &dyn Fn() -> String) -> Result<[f64; 4], PosesError> {
-    let q = numbers::<4>(entry, "quaternion", at)?;
+    unit_quaternion(numbers::<4>(entry, "quaternion", at)?, at)
+}
+
+fn unit_quaternion(q: [f64; 4], at: &dyn Fn() -> String) -> Result<[f64; 4], PosesError> {
     let norm = q.iter().map(|c| c * c).sum::<f64>().sqrt();
-    if (norm - 1.0).abs() > QUATERNION_TOLERANCE {
+    if norm.is_nan() || (norm - 1.0).abs() > QUATERNION_TOLERANCE {
         return Err(PosesError::Invalid(format!(
             "{}: `quaternion` has norm {norm:.6}, not 1 (a rotation's quaternion [w, x, y, z] is unit)",
             at()

@@ -48,8 +48,11 @@ pub fn read_xyz<R: BufRead>(
             ));
         }
         split_fields(&line, &mut spans);
-        let fields: Vec<&[u8]> = spans.iter().map(|&(a, b)| &line[a..b]).collect();
-        if fields.is_empty() || fields[0].starts_with(b"#") || fields[0].starts_with(b"//") {
+        let fields = Fields {
+            line: &line,
+            spans: &spans,
+        };
+        if fields.is_empty() || fields.at(0).starts_with(b"#") || fields.at(0).starts_with(b"//") {
             continue;
         }
         if !state.reserved && !pts {
@@ -60,7 +63,7 @@ pub fn read_xyz<R: BufRead>(
         let at = || format!("line {line_no}");
         // A lone integer starts a PTS block (a scan) and gives its point count.
         if pts && fields.len() == 1 {
-            let count = parse_count(fields[0]).ok_or_else(|| {
+            let count = parse_count(fields.at(0)).ok_or_else(|| {
                 ReadError::at(name, fname, "expected a point count or x y z", at())
             })?;
             if count.saturating_mul(6) > len {
@@ -71,6 +74,12 @@ pub fn read_xyz<R: BufRead>(
                     at(),
                 ));
             }
+            state.close_block(name, fname)?;
+            state.block = Some(Block {
+                count,
+                line: line_no,
+                seen: 0,
+            });
             b.reserve(count as usize);
             state.blocks += 1;
             state.block_slot = Some(
@@ -83,7 +92,9 @@ pub fn read_xyz<R: BufRead>(
         let (p, scan) = match parsed {
             Ok(v) => v,
             // The first content line may be a header such as `x,y,z,scan`.
-            Err(_) if !state.seen_content && fields.iter().any(|f| !is_number(f)) => {
+            Err(_)
+                if !state.seen_content && (0..fields.len()).any(|i| !is_number(fields.at(i))) =>
+            {
                 state.seen_content = true;
                 state.header = Some(String::from_utf8_lossy(&line).trim().to_string());
                 continue;
@@ -91,6 +102,20 @@ pub fn read_xyz<R: BufRead>(
             Err(why) => return Err(ReadError::at(name, fname, why, at())),
         };
         state.seen_content = true;
+        if let Some(block) = &mut state.block {
+            block.seen += 1;
+            if block.seen > block.count {
+                return Err(ReadError::at(
+                    name,
+                    fname,
+                    format!(
+                        "more points than the count line (line {}) says ({})",
+                        block.line, block.count
+                    ),
+                    at(),
+                ));
+            }
+        }
         let slot = match scan {
             Some(id) => Some(
                 b.scan_slot(id)
@@ -103,6 +128,7 @@ pub fn read_xyz<R: BufRead>(
     if line_no == 0 {
         return Err(ReadError::named(name, fname, "the file is empty"));
     }
+    state.close_block(name, fname)?;
     if pts && state.blocks < 2 && options.scan_column.is_none() {
         // One block is one unnamed scan: no scan index worth keeping.
         let c = b.cloud_mut();
@@ -120,6 +146,33 @@ struct State {
     header: Option<String>,
     blocks: u32,
     block_slot: Option<u16>,
+    /// The PTS block being read.
+    block: Option<Block>,
+}
+
+/// A PTS block: the points its count line announced, and how many have come.
+struct Block {
+    count: u64,
+    line: u64,
+    seen: u64,
+}
+
+impl State {
+    /// A block that ends short of its count means a truncated or spliced file.
+    fn close_block(&mut self, name: &str, fname: &'static str) -> Result<(), ReadError> {
+        match self.block.take() {
+            Some(b) if b.seen < b.count => Err(ReadError::at(
+                name,
+                fname,
+                format!(
+                    "the count line says {} points but {} follow: the file is truncated",
+                    b.count, b.seen
+                ),
+                format!("line {}", b.line),
+            )),
+            _ => Ok(()),
+        }
+    }
 }
 
 fn describe(state: &State, options: &ReadOptions, lines: u64, bytes: u64) -> String {
@@ -134,6 +187,31 @@ fn describe(state: &State, options: &ReadOptions, lines: u64, bytes: u64) -> Str
         d += &format!(", scan index in column {c}");
     }
     d
+}
+
+/// A line's fields, as byte ranges into it (no allocation per line).
+struct Fields<'a> {
+    line: &'a [u8],
+    spans: &'a [(usize, usize)],
+}
+
+impl Fields<'_> {
+    fn len(&self) -> usize {
+        self.spans.len()
+    }
+
+    fn is_empty(&self) -> bool {
+        self.spans.is_empty()
+    }
+
+    fn at(&self, i: usize) -> &[u8] {
+        let (a, b) = self.spans[i];
+        &self.line[a..b]
+    }
+
+    fn get(&self, i: usize) -> Option<&[u8]> {
+        (i < self.len()).then(|| self.at(i))
+    }
 }
 
 /// Splits on whitespace, commas and semicolons, dropping empty fields; gives byte ranges.
@@ -170,7 +248,7 @@ fn parse_count(field: &[u8]) -> Option<u64> {
 
 /// x, y, z from the first three fields and, when asked, a scan index from another.
 fn parse_point(
-    fields: &[&[u8]],
+    fields: &Fields,
     scan_column: Option<usize>,
 ) -> Result<([f64; 3], Option<u32>), String> {
     if fields.len() < 3 {
@@ -181,10 +259,11 @@ fn parse_point(
     }
     let mut p = [0.0; 3];
     for (k, v) in p.iter_mut().enumerate() {
-        *v = parse_f64(fields[k]).ok_or_else(|| {
+        let field = fields.at(k);
+        *v = parse_f64(field).ok_or_else(|| {
             format!(
                 "`{}` in column {k} is not a number",
-                String::from_utf8_lossy(&fields[k][..fields[k].len().min(40)])
+                String::from_utf8_lossy(&field[..field.len().min(40)])
             )
         })?;
     }

@@ -35,7 +35,15 @@ const FORMAT: &str = "ply";
 pub fn read_ply(path: &Path) -> Result<PointCloud, ReadError> {
     let file = File::open(path).map_err(|e| io_error(path, e))?;
     let file_len = file.metadata().map_err(|e| io_error(path, e))?.len();
-    let mut reader = BufReader::with_capacity(1 << 20, file);
+    read_ply_from(file, file_len, &path.display().to_string())
+}
+
+/// Reads PLY from any source of `len` bytes (a file, an upload in memory); `name` is used in
+/// errors. The source is read once, front to back, through a buffer.
+pub fn read_ply_from<R: Read>(source: R, len: u64, name: &str) -> Result<PointCloud, ReadError> {
+    let path = Path::new(name);
+    let file_len = len;
+    let mut reader = BufReader::with_capacity(1 << 20, source);
     let header = read_header(&mut reader, path)?;
     let (vertex_pos, vertex) = header
         .elements
@@ -152,7 +160,7 @@ impl Sink {
             skipped: self.skipped,
             skipped_reason: (self.skipped > 0)
                 .then(|| "non-finite coordinate or time (NaN or infinite)".to_string()),
-            units: "m".into(),
+            units: String::new(),
         };
         self.cloud
     }
@@ -368,26 +376,27 @@ impl<R: BufRead> Body<'_, R> {
             values.clear();
             let mut tokens = self.text.split_ascii_whitespace();
             for p in &vertex.properties {
-                let mut next = |what: &str| -> Result<f64, ReadError> {
+                // `what` names the value only when there is an error: no formatting per value.
+                let mut next = |what: &dyn Fn() -> String| -> Result<f64, ReadError> {
                     let token = tokens.next().ok_or_else(|| {
                         invalid(
                             self.path,
-                            format!("vertex {k}: the line ends before {what}"),
+                            format!("vertex {k}: the line ends before {}", what()),
                             Some(format!("line {}", self.line)),
                         )
                     })?;
                     parse_number(token).ok_or_else(|| {
                         invalid(
                             self.path,
-                            format!("vertex {k}: {what} is not a number: {token:?}"),
+                            format!("vertex {k}: {} is not a number: {token:?}", what()),
                             Some(format!("line {}", self.line)),
                         )
                     })
                 };
                 match p.kind {
-                    Kind::Scalar(_) => values.push(next(&format!("property `{}`", p.name))?),
+                    Kind::Scalar(_) => values.push(next(&|| format!("property `{}`", p.name))?),
                     Kind::List { .. } => {
-                        let n = next(&format!("the length of list `{}`", p.name))?;
+                        let n = next(&|| format!("the length of list `{}`", p.name))?;
                         if !(n >= 0.0 && n.fract() == 0.0 && n <= 1.0e6) {
                             return Err(invalid(
                                 self.path,
@@ -396,7 +405,7 @@ impl<R: BufRead> Body<'_, R> {
                             ));
                         }
                         for _ in 0..n as usize {
-                            next(&format!("an item of list `{}`", p.name))?;
+                            next(&|| format!("an item of list `{}`", p.name))?;
                         }
                         values.push(f64::NAN);
                     }

@@ -1,0 +1,261 @@
+//! Writes the seed corpus (`fuzz/corpus/<target>/`): small valid files of every layout the
+//! readers take. Run from `fuzz/`: `cargo run --example make_seeds`.
+
+use std::path::{Path, PathBuf};
+
+use asbuilt_plan::cloud::{PointCloud, ScanPose, TrajectorySample, Viewpoints};
+use asbuilt_plan::io::{export, ply, poses};
+
+fn out(target: &str, name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("corpus")
+        .join(target);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+/// Twelve points in two scans, with times, poses at the scanners.
+fn cloud() -> PointCloud {
+    let pts: Vec<[f64; 3]> = (0..12)
+        .map(|i| {
+            let f = f64::from(i);
+            [f * 0.5, (f * 0.37).sin() * 3.0, f * 0.25]
+        })
+        .collect();
+    let mut c = PointCloud::from_world(&pts);
+    c.scan = (0..12).map(|i| u16::from(i >= 6)).collect();
+    c.scan_ids = vec![3, 7];
+    c.time = (0..12).map(|i| f64::from(i) * 0.1).collect();
+    c.viewpoints = Viewpoints::Static(vec![
+        ScanPose {
+            index: 3,
+            position: [1.0, 0.0, 1.5],
+            quaternion: [1.0, 0.0, 0.0, 0.0],
+        },
+        ScanPose {
+            index: 7,
+            position: [4.0, 1.0, 1.5],
+            quaternion: [0.9238795325112867, 0.0, 0.0, 0.3826834323650898],
+        },
+    ]);
+    c
+}
+
+fn ply_seeds(c: &PointCloud) {
+    use ply::Encoding::*;
+    for (enc, name) in [
+        (Ascii, "ascii.ply"),
+        (BinaryLittleEndian, "le.ply"),
+        (BinaryBigEndian, "be.ply"),
+    ] {
+        ply::write_ply(&out("ply", name), c, enc).unwrap();
+    }
+    let mut geo = c.clone();
+    geo.origin = [512_000.0, 5_400_000.0, 200.0];
+    ply::write_ply(&out("ply", "double.ply"), &geo, BinaryLittleEndian).unwrap();
+    let faces = "ply\r\nformat ascii 1.0\r\ncomment faces first\r\nelement face 1\r\n\
+        property list uchar int vertex_indices\r\nelement vertex 3\r\nproperty uchar red\r\n\
+        property float x\r\nproperty float y\r\nproperty float z\r\nproperty int scan\r\nend_header\r\n\
+        3 0 1 2\r\n255 0 0 0 1\r\n0 1 0 0 1\r\n0 0 1 nan 2\r\n";
+    std::fs::write(out("ply", "faces.ply"), faces).unwrap();
+    let mut le = b"ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty short x\n\
+        property int y\nproperty double z\nproperty list uchar float n\nend_header\n"
+        .to_vec();
+    for (x, y, z) in [(1i16, 2i32, 3.5f64), (-4, 5, 6.25)] {
+        le.extend(x.to_le_bytes());
+        le.extend(y.to_le_bytes());
+        le.extend(z.to_le_bytes());
+        le.push(1);
+        le.extend(0.5f32.to_le_bytes());
+    }
+    std::fs::write(out("ply", "lists.ply"), le).unwrap();
+}
+
+fn e57_seeds(c: &PointCloud) {
+    export::write_e57(&out("e57", "cartesian.e57"), c).unwrap();
+    // Spherical coordinates with an invalid-state field, intensity and colour, single precision.
+    let path = out("e57", "spherical.e57");
+    let mut w = e57::E57Writer::from_file(&path, "seed").unwrap();
+    let prototype = vec![
+        e57::Record::SPHERICAL_RANGE_F32,
+        e57::Record::SPHERICAL_AZIMUTH_F32,
+        e57::Record::SPHERICAL_ELEVATION_F32,
+        e57::Record::SPHERICAL_INVALID_STATE,
+        e57::Record::INTENSITY_U16,
+        e57::Record::COLOR_RED_U8,
+        e57::Record::COLOR_GREEN_U8,
+        e57::Record::COLOR_BLUE_U8,
+    ];
+    let mut pc = w.add_pointcloud("sph", prototype).unwrap();
+    for i in 0..8 {
+        let f = i as f32;
+        use e57::RecordValue::*;
+        pc.add_point(vec![
+            Single(1.0 + f),
+            Single(f * 0.3),
+            Single(f * 0.1 - 0.3),
+            Integer(i64::from(i == 5)),
+            Integer(i64::from(i) * 100),
+            Integer(200),
+            Integer(100),
+            Integer(i64::from(i)),
+        ])
+        .unwrap();
+    }
+    pc.finalize().unwrap();
+    // A second scan with scaled-integer cartesian coordinates and a pose.
+    let scaled = |name| e57::Record {
+        name,
+        data_type: e57::RecordDataType::ScaledInteger {
+            min: -100_000,
+            max: 100_000,
+            scale: 0.001,
+            offset: 0.0,
+        },
+    };
+    let prototype = vec![
+        scaled(e57::RecordName::CartesianX),
+        scaled(e57::RecordName::CartesianY),
+        scaled(e57::RecordName::CartesianZ),
+        e57::Record::CARTESIAN_INVALID_STATE,
+    ];
+    let mut pc = w.add_pointcloud("scaled", prototype).unwrap();
+    pc.set_transform(Some(e57::Transform {
+        rotation: e57::Quaternion {
+            w: 0.0,
+            x: 0.0,
+            y: 0.0,
+            z: 1.0,
+        },
+        translation: e57::Translation {
+            x: 10.0,
+            y: 20.0,
+            z: 1.5,
+        },
+    }));
+    for i in 0..8i64 {
+        use e57::RecordValue::*;
+        pc.add_point(vec![
+            ScaledInteger(i * 1000),
+            ScaledInteger(-i * 500),
+            ScaledInteger(1200),
+            Integer(i64::from(i == 3) * 2),
+        ])
+        .unwrap();
+    }
+    pc.finalize().unwrap();
+    w.finalize().unwrap();
+}
+
+fn las_seeds(c: &PointCloud) {
+    export::write_las(&out("las", "las12.las"), c, false).unwrap();
+    export::write_las(&out("las", "laz12.laz"), c, true).unwrap();
+    for (minor, format, compressed, name) in [
+        (0, 0, false, "las10.las"),
+        (3, 3, false, "las13.las"),
+        (4, 6, false, "las14.las"),
+        (4, 7, true, "laz14.laz"),
+    ] {
+        let mut b = las::Builder::from((1, minor));
+        b.point_format = las::point::Format::new(format).unwrap();
+        b.point_format.is_compressed = compressed;
+        b.transforms = las::Vector {
+            x: las::Transform {
+                scale: 0.001,
+                offset: 500_000.0,
+            },
+            y: las::Transform {
+                scale: 0.001,
+                offset: 5_000_000.0,
+            },
+            z: las::Transform {
+                scale: 0.01,
+                offset: 0.0,
+            },
+        };
+        let mut header = b.into_header().unwrap();
+        if minor == 4 {
+            header
+                .set_wkt_crs(b"PROJCS[\"ETRS89 / UTM zone 32N\",AUTHORITY[\"EPSG\",\"25832\"]]".to_vec())
+                .unwrap();
+        }
+        let file = std::fs::File::create(out("las", name)).unwrap();
+        let mut w = las::Writer::new(std::io::BufWriter::new(file), header).unwrap();
+        for i in 0..10 {
+            let f = f64::from(i);
+            w.write_point(las::Point {
+                x: 500_010.0 + f,
+                y: 5_000_020.0 - f,
+                z: 1.0 + f * 0.1,
+                point_source_id: (i % 3) as u16,
+                gps_time: w.header().point_format().has_gps_time.then_some(f),
+                color: w.header().point_format().has_color.then_some(las::Color::new(1, 2, 3)),
+                return_number: 1,
+                number_of_returns: 1,
+                ..Default::default()
+            })
+            .unwrap();
+        }
+        w.close().unwrap();
+    }
+}
+
+fn xyz_seeds(c: &PointCloud) {
+    // The target's first byte chooses the reader: even = XYZ, odd = PTS; bit 1 asks for a
+    // scan column, bits 2.. give it.
+    let seed = |name: &str, mode: u8, text: &str| {
+        let mut bytes = vec![mode];
+        bytes.extend(text.as_bytes());
+        std::fs::write(out("xyz", name), bytes).unwrap();
+    };
+    let path = std::env::temp_dir().join("asbuilt-seed.xyz");
+    export::write_xyz(&path, c).unwrap();
+    let written = std::fs::read_to_string(&path).unwrap();
+    seed("written.xyz", 2 | (3 << 2), &written);
+    seed("csv.xyz", 0, "x,y,z,intensity\n1.5,2.5,3.5,10\n4,5,6,11\n-1e3,2E-2,nan,0\n");
+    seed("tabs.xyz", 0, "# comment\n1\t2\t3\n\n4 5 6 ; extra\r\n7;8;9\n");
+    seed(
+        "blocks.pts",
+        1,
+        "2\n1 2 3 -1200 10 20 30\n4 5 6 -1100 10 20 30\n1\n7 8 9 -1000 1 2 3\n",
+    );
+    seed("scan.pts", 1 | 2 | (4 << 2), "3\n1 2 3 5 0\n4 5 6 5 1\n7 8 9 5 1\n");
+}
+
+fn poses_seeds(c: &PointCloud) {
+    let Viewpoints::Static(p) = &c.viewpoints else {
+        unreachable!()
+    };
+    std::fs::write(out("poses", "poses.json"), poses::poses_to_json(p, c.origin)).unwrap();
+    let small = [ScanPose {
+        index: 0,
+        position: [0.0, 0.0, 1.5],
+        quaternion: [1.0, 0.0, 0.0, 0.0],
+    }, ScanPose {
+        index: 1,
+        position: [2.0, 0.0, 1.5],
+        quaternion: [0.0, 0.0, 0.0, 1.0],
+    }];
+    std::fs::write(out("poses", "two.json"), poses::poses_to_json(&small, [0.0; 3])).unwrap();
+    let samples: Vec<TrajectorySample> = (0..4)
+        .map(|i| TrajectorySample {
+            t: f64::from(i) * 0.5,
+            position: [f64::from(i), 0.0, 1.2],
+            quaternion: [1.0, 0.0, 0.0, 0.0],
+        })
+        .collect();
+    std::fs::write(
+        out("poses", "trajectory.json"),
+        poses::trajectory_to_json(&samples, [0.0; 3]),
+    )
+    .unwrap();
+}
+
+fn main() {
+    let c = cloud();
+    ply_seeds(&c);
+    e57_seeds(&c);
+    las_seeds(&c);
+    xyz_seeds(&c);
+    poses_seeds(&c);
+}
