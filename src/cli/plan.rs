@@ -190,20 +190,16 @@ pub(super) fn load(
 ) -> anyhow::Result<PointCloud> {
     let mut cloud = io::read_cloud_with(input, options)?;
     let s = options.scale.unwrap_or(1.0);
+    // The sidecar readers cap the file size and name the file in their errors.
     if let Some(path) = poses_file {
-        let text =
-            std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-        let mut scans = poses::parse_poses(&text).with_context(|| format!("{}", path.display()))?;
+        let mut scans = poses::read_poses(path)?;
         for p in &mut scans {
             p.position = p.position.map(|c| c * s);
         }
         poses::attach_poses(&mut cloud, scans).with_context(|| format!("{}", path.display()))?;
     }
     if let Some(path) = trajectory_file {
-        let text =
-            std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-        let mut samples =
-            poses::parse_trajectory(&text).with_context(|| format!("{}", path.display()))?;
+        let mut samples = poses::read_trajectory(path)?;
         for p in &mut samples {
             p.position = p.position.map(|c| c * s);
         }

@@ -127,22 +127,14 @@ impl Pipeline for PlanPipeline {
         })?;
         check_points(cloud.len() as u64, input.max_points)?;
         if let Some((kind, path)) = &input.sidecar {
-            let text = std::fs::read_to_string(path).map_err(|e| {
-                PipelineFailure::new("invalid_poses", format!("{}: {e}", kind.name()))
-            })?;
-            let bad = |e: poses::PosesError| {
-                PipelineFailure::new("invalid_poses", format!("{}: {e}", kind.name()))
+            // The readers cap the sidecar's size; the message names the part, not our path.
+            let loaded = match kind {
+                SidecarKind::Poses => poses::load_poses(&mut cloud, path),
+                SidecarKind::Trajectory => poses::load_trajectory(&mut cloud, path),
             };
-            match kind {
-                SidecarKind::Poses => {
-                    let scans = poses::parse_poses(&text).map_err(bad)?;
-                    poses::attach_poses(&mut cloud, scans).map_err(bad)?;
-                }
-                SidecarKind::Trajectory => {
-                    let samples = poses::parse_trajectory(&text).map_err(bad)?;
-                    poses::attach_trajectory(&mut cloud, samples).map_err(bad)?;
-                }
-            }
+            loaded.map_err(|e| {
+                PipelineFailure::new("invalid_poses", hide_path(e.to_string(), path, kind.name()))
+            })?;
         }
         let read_ms = read_start.elapsed().as_millis() as u64;
         if progress.cancelled() {

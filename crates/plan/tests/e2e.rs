@@ -248,6 +248,7 @@ fn rotated_l_georeferenced_through_ply_and_sidecar() {
     // The plan stays in the world frame of the input.
     let x = plan.stories[0].polygons[0].exterior[0][0] + plan.origin[0];
     assert!((x - offset[0]).abs() < 100.0, "world x {x}");
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
