@@ -1,6 +1,7 @@
 //! Reading clouds and pose sidecars, and writing plans. The only module that touches files.
 
 mod assemble;
+pub mod chunks;
 pub mod detect;
 pub mod dxf;
 pub mod e57;
@@ -9,6 +10,7 @@ pub mod geojson;
 pub mod las;
 pub mod ply;
 pub mod poses;
+pub mod spill;
 pub mod svg;
 mod units;
 pub mod xyz;
@@ -229,7 +231,10 @@ where
             let name = owned_name.as_str();
             match format {
                 Format::E57 => e57::read_e57(source, len, name, &opts),
-                Format::Las | Format::Laz => las::read_las(source, len, name, &opts),
+                // The LAZ decoder reads a byte at a time: buffer it.
+                Format::Las | Format::Laz => {
+                    las::read_las(BufReader::with_capacity(1 << 16, source), len, name, &opts)
+                }
                 Format::Xyz | Format::Pts => xyz::read_xyz(
                     BufReader::with_capacity(1 << 20, source),
                     len,

@@ -155,6 +155,9 @@ impl Tests {
             .filter_map(|p| self.bin_of(p[2]))
             .fold((0u32, 0usize), |(m, n), b| (m | 1 << b, n + 1));
         self.histogram(mask, n)?;
+        if median_outside(pts, lo, cell) {
+            return Err(Reject::MedianOutside);
+        }
         let pos = median_xy(pts);
         let inside = |k: usize| pos[k] >= lo[k] && pos[k] < lo[k] + cell;
         if !(inside(0) && inside(1)) {
@@ -170,6 +173,25 @@ impl Tests {
             confidence,
         })
     }
+}
+
+/// True when counting alone proves the median (of [`median_xy`]) lies outside the cell at
+/// `lo`: more than the points below the median's rank lie on one side of it. Most cells next
+/// to a wall fail so, and counting is much cheaper than selecting.
+fn median_outside(pts: &[[f32; 3]], lo: P2, cell: f64) -> bool {
+    let mid = pts.len() / 2;
+    let mut below = [0usize; 2];
+    let mut above = [0usize; 2];
+    for p in pts {
+        for k in 0..2 {
+            let v = p[k] as f64;
+            below[k] += usize::from(v < lo[k]);
+            above[k] += usize::from(v >= lo[k] + cell);
+        }
+    }
+    // The median is element `mid` in sorted order: below the cell when `mid + 1` points are,
+    // at or beyond its far edge when `len - mid` points are.
+    (0..2).any(|k| below[k] > mid || above[k] >= pts.len() - mid)
 }
 
 /// The component-wise median of x and y (the upper median for an even count).
