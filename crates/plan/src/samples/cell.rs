@@ -50,6 +50,9 @@ impl Reject {
     }
 }
 
+/// The bin code of a height outside every bin.
+pub(super) const NO_BIN: u8 = u8::MAX;
+
 /// A cell that passed: its sample position, unit normal (unoriented) and confidence.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Wall {
@@ -134,9 +137,29 @@ impl Tests {
 
     /// Runs every test on the neighbourhood `pts` of the cell whose lower-left corner is `lo`
     /// and width `cell`. Reorders `pts` (median selection).
+    #[cfg(test)]
     pub fn run(
         &self,
         pts: &mut [[f32; 3]],
+        lo: P2,
+        cell: f64,
+        min_points: usize,
+    ) -> Result<Wall, Reject> {
+        let bins: Vec<u8> = pts.iter().map(|p| self.bin_code(p[2])).collect();
+        self.run_binned(pts, &bins, lo, cell, min_points)
+    }
+
+    /// [`Self::bin_of`] as a byte, [`NO_BIN`] for `None`, for storing beside each point.
+    #[inline]
+    pub fn bin_code(&self, z: f32) -> u8 {
+        self.bin_of(z).map_or(NO_BIN, |b| b as u8)
+    }
+
+    /// [`Self::run`] with each point's height bin given (see [`Self::bin_code`]).
+    pub fn run_binned(
+        &self,
+        pts: &mut [[f32; 3]],
+        bins: &[u8],
         lo: P2,
         cell: f64,
         min_points: usize,
@@ -150,10 +173,10 @@ impl Tests {
         if ((zmax - zmin) as f64) < self.min_wall_height {
             return Err(Reject::TooShort);
         }
-        let (mask, n) = pts
+        let (mask, n) = bins
             .iter()
-            .filter_map(|p| self.bin_of(p[2]))
-            .fold((0u32, 0usize), |(m, n), b| (m | 1 << b, n + 1));
+            .filter(|&&b| b != NO_BIN)
+            .fold((0u32, 0usize), |(m, n), &b| (m | 1 << b, n + 1));
         self.histogram(mask, n)?;
         if median_outside(pts, lo, cell) {
             return Err(Reject::MedianOutside);

@@ -40,12 +40,6 @@ impl GridFrame {
         (i, j)
     }
 
-    /// The row of a point's cell, as [`Self::cell_of`] finds it.
-    #[inline]
-    pub fn row_of(&self, p: &[f32; 3]) -> usize {
-        (((p[1] as f64 - self.origin[1]) * (1.0 / self.cell)) as usize).min(self.ny - 1)
-    }
-
     /// Every cell of the grid.
     pub fn all(&self) -> CellRange {
         CellRange {
@@ -261,24 +255,29 @@ pub(super) struct Points<'a> {
     pub time: &'a [f64],
 }
 
-/// A story's points in a range of its grid's cells, sorted by cell.
+/// A story's points in a range of its grid's cells, sorted by cell. Every held cell has its
+/// height summary; only the cells some neighbourhood will be gathered from keep their points.
 pub(super) struct Grid {
     pub frame: GridFrame,
     /// The cells held.
     pub range: CellRange,
-    /// `pts[start[c]..start[c + 1]]` are the points of held cell `c` (row-major in `range`).
+    /// `pts[start[c]..start[c + 1]]` are the kept points of held cell `c` (row-major in
+    /// `range`); empty for cells whose points no neighbourhood needs.
     pub start: Vec<u32>,
     pub pts: Vec<[f32; 3]>,
-    /// Alongside `pts`, when carried: the points' scan slots, or their times.
+    /// Alongside `pts`: each point's height bin code, and when carried its scan slot or time.
+    pub bins: Vec<u8>,
     pub slots: Vec<u16>,
     pub times: Vec<f64>,
-    /// Per held cell: the heights of its own points.
+    /// Per held cell: the count and heights of all its points.
     pub summaries: Vec<Summary>,
 }
 
-/// The heights of one cell's own points: their range, and which height bins they fill.
+/// The heights of one cell's own points: their number and range, and which height bins they
+/// fill. Summaries of cells merge into the summary of their union.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Summary {
+    pub n: u32,
     pub zmin: f32,
     pub zmax: f32,
     pub mask: u32,
@@ -287,6 +286,7 @@ pub(super) struct Summary {
 impl Default for Summary {
     fn default() -> Self {
         Summary {
+            n: 0,
             zmin: f32::INFINITY,
             zmax: f32::NEG_INFINITY,
             mask: 0,
@@ -294,20 +294,38 @@ impl Default for Summary {
     }
 }
 
+impl Summary {
+    #[inline]
+    pub fn merge(&mut self, o: &Summary) {
+        self.n += o.n;
+        self.zmin = self.zmin.min(o.zmin);
+        self.zmax = self.zmax.max(o.zmax);
+        self.mask |= o.mask;
+    }
+}
+
+/// A point's held-cell key in the counting pass's record: none.
+const NO_KEY: u32 = u32::MAX;
+
 impl Grid {
     /// Sorts the points of `story` (those with `z_min <= z < z_max`) that fall in `range` of
-    /// `frame` by cell, and summarizes each cell's heights with `bin_of`, the height bin of a z.
-    /// Only the points in `spans` (index ranges, in order) are looked at; `None` is all.
+    /// `frame` by cell, and summarizes each cell's heights with `bin_code`, a height's bin
+    /// (see [`super::cell::Tests::bin_code`]). Only the points in `spans` (index ranges, in
+    /// order) are looked at; `None` is all. The points of a cell are kept only when it lies in
+    /// the 3 × 3 block of a cell of `core` whose block summary passes `candidate`.
+    #[allow(clippy::too_many_arguments)]
     pub fn build(
         points: Points<'_>,
         spans: Option<&[Range<usize>]>,
         story: &Story,
         frame: GridFrame,
-        range: CellRange,
+        core: &CellRange,
         carry: Carry,
-        bin_of: impl Fn(f32) -> Option<u32> + Sync,
+        bin_code: impl Fn(f32) -> u8 + Sync,
+        candidate: impl Fn(&Summary) -> bool,
     ) -> Result<Grid, SamplesError> {
         let xyz = points.xyz;
+        let range = core.grown(&frame);
         let whole = [0..xyz.len()];
         let spans: Vec<Range<usize>> = spans
             .unwrap_or(&whole)
@@ -322,80 +340,139 @@ impl Grid {
             )));
         }
         let width = range.width();
+        // `cell_of`, with the frame's numbers hoisted out of the loop.
+        let (ox, oy, inv) = (frame.origin[0], frame.origin[1], 1.0 / frame.cell);
+        let (last_i, last_j) = (frame.nx - 1, frame.ny - 1);
         let key = |p: &[f32; 3]| -> Option<usize> {
             if !in_story(story, p[2]) {
                 return None;
             }
-            let (i, j) = frame.cell_of(p);
+            // Through i64: the same values for these non-negative numbers, and a cheaper cast.
+            let i = ((((p[0] as f64 - ox) * inv) as i64) as usize).min(last_i);
+            let j = ((((p[1] as f64 - oy) * inv) as i64) as usize).min(last_j);
             (range.i.contains(&i) && range.j.contains(&j))
                 .then(|| (j - range.j.start) * width + (i - range.i.start))
         };
         let cells = range.cells();
-        // Counts per cell: one part of the spans per thread, summed.
+
+        // The counting pass, one part of the spans per thread: every cell's summary, and each
+        // point's key, recorded so the scatter need not find it again.
         let parts = rayon::current_num_threads().max(1);
         let total: usize = spans.iter().map(|r| r.len()).sum();
         let pieces = split_spans(&spans, total.div_ceil(parts).max(1));
-        let counts = pieces
+        let mut keys = vec![NO_KEY; total];
+        let mut key_parts = Vec::with_capacity(pieces.len());
+        {
+            let mut rest = &mut keys[..];
+            for piece in &pieces {
+                let len = piece.iter().map(|r| r.len()).sum();
+                let (k, r) = rest.split_at_mut(len);
+                key_parts.push(k);
+                rest = r;
+            }
+        }
+        let summaries = pieces
             .par_iter()
-            .map(|piece| {
-                let mut c = vec![0u32; cells];
+            .zip(key_parts)
+            .map(|(piece, keys)| {
+                let mut sums = vec![Summary::default(); cells];
+                let mut at = 0;
                 for r in piece {
                     for p in &xyz[r.clone()] {
-                        if let Some(k) = key(p) {
-                            c[k] += 1;
+                        if let Some(c) = key(p) {
+                            let s = &mut sums[c];
+                            s.n += 1;
+                            s.zmin = s.zmin.min(p[2]);
+                            s.zmax = s.zmax.max(p[2]);
+                            let b = bin_code(p[2]);
+                            if b != super::cell::NO_BIN {
+                                s.mask |= 1 << b;
+                            }
+                            keys[at] = c as u32;
                         }
+                        at += 1;
                     }
                 }
-                c
+                sums
             })
             .reduce(
-                || vec![0u32; cells],
+                || vec![Summary::default(); cells],
                 |mut a, b| {
-                    a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
+                    a.iter_mut().zip(&b).for_each(|(x, y)| x.merge(y));
                     a
                 },
             );
+
+        // Which cells' points a neighbourhood will read.
+        let mut needed = vec![false; cells];
+        let id = |i: usize, j: usize| (j - range.j.start) * width + (i - range.i.start);
+        for j in core.j.clone() {
+            for i in core.i.clone() {
+                let mut block = Summary::default();
+                let (xs, ys) = (
+                    i.saturating_sub(1).max(range.i.start)..(i + 2).min(range.i.end),
+                    j.saturating_sub(1).max(range.j.start)..(j + 2).min(range.j.end),
+                );
+                for b in ys.clone() {
+                    for a in xs.clone() {
+                        block.merge(&summaries[id(a, b)]);
+                    }
+                }
+                if block.n > 0 && candidate(&block) {
+                    for b in ys.clone() {
+                        for a in xs.clone() {
+                            needed[id(a, b)] = true;
+                        }
+                    }
+                }
+            }
+        }
         let mut start = vec![0u32; cells + 1];
         for c in 0..cells {
-            start[c + 1] = start[c] + counts[c];
+            start[c + 1] = start[c] + if needed[c] { summaries[c].n } else { 0 };
         }
-        drop(counts);
         let n = start[cells] as usize;
         let mut pts = vec![[0f32; 3]; n];
+        let mut bins = vec![0u8; n];
         let mut slots = vec![0u16; if carry == Carry::Slots { n } else { 0 }];
         let mut times = vec![0f64; if carry == Carry::Times { n } else { 0 }];
+
         // The scatter, in bands of rows, one per thread: each band owns a contiguous part of
-        // the output, reads the whole cloud and keeps its own points, in cloud order.
+        // the output, passes over the recorded keys and keeps its own points, in cloud order.
         let bands = band_rows(&start, width, range.j.len(), parts);
         let mut outs = Vec::with_capacity(bands.len());
         {
-            let (mut p_rest, mut s_rest, mut t_rest) =
-                (&mut pts[..], &mut slots[..], &mut times[..]);
+            let (mut p_rest, mut b_rest, mut s_rest, mut t_rest) =
+                (&mut pts[..], &mut bins[..], &mut slots[..], &mut times[..]);
             for rows in &bands {
                 let (c0, c1) = (rows.start * width, rows.end * width);
                 let len = (start[c1] - start[c0]) as usize;
                 let (p, pr) = p_rest.split_at_mut(len);
+                let (b, br) = b_rest.split_at_mut(len);
                 let (s, sr) = s_rest.split_at_mut(if s_rest.is_empty() { 0 } else { len });
                 let (t, tr) = t_rest.split_at_mut(if t_rest.is_empty() { 0 } else { len });
-                (p_rest, s_rest, t_rest) = (pr, sr, tr);
-                outs.push((rows.clone(), c0..c1, p, s, t));
+                (p_rest, b_rest, s_rest, t_rest) = (pr, br, sr, tr);
+                outs.push((c0..c1, p, b, s, t));
             }
         }
-        outs.into_par_iter().for_each(|(rows, cells, p, s, t)| {
-            let base = start[cells.start];
-            let mut next: Vec<u32> = start[cells.clone()].iter().map(|&v| v - base).collect();
-            let rows = range.j.start + rows.start..range.j.start + rows.end;
+        let (keys, needed) = (&keys, &needed);
+        outs.into_par_iter().for_each(|(band, p, b, s, t)| {
+            let base = start[band.start];
+            let mut next: Vec<u32> = start[band.clone()].iter().map(|&v| v - base).collect();
+            let (c0, c1) = (band.start as u32, band.end as u32);
+            let mut at = 0;
             for r in &spans {
                 for (k, q) in xyz[r.clone()].iter().enumerate() {
-                    // The row first: most points belong to the other bands.
-                    if !in_story(story, q[2]) || !rows.contains(&frame.row_of(q)) {
+                    let c = keys[at];
+                    at += 1;
+                    if c < c0 || c >= c1 || !needed[c as usize] {
                         continue;
                     }
-                    let Some(c) = key(q) else { continue };
-                    let at = &mut next[c - cells.start];
-                    let dst = *at as usize;
-                    *at += 1;
+                    let slot = &mut next[(c - c0) as usize];
+                    let dst = *slot as usize;
+                    *slot += 1;
                     p[dst] = *q;
+                    b[dst] = bin_code(q[2]);
                     match carry {
                         Carry::Slots => s[dst] = points.scan[r.start + k],
                         Carry::Times => t[dst] = points.time[r.start + k],
@@ -404,27 +481,12 @@ impl Grid {
                 }
             }
         });
-        let mut summaries = vec![Summary::default(); cells];
-        summaries
-            .par_chunks_mut(width.max(1))
-            .enumerate()
-            .for_each(|(row, out)| {
-                for (x, s) in out.iter_mut().enumerate() {
-                    let c = row * width + x;
-                    for p in &pts[start[c] as usize..start[c + 1] as usize] {
-                        s.zmin = s.zmin.min(p[2]);
-                        s.zmax = s.zmax.max(p[2]);
-                        if let Some(b) = bin_of(p[2]) {
-                            s.mask |= 1 << b;
-                        }
-                    }
-                }
-            });
         Ok(Grid {
             frame,
             range,
             start,
             pts,
+            bins,
             slots,
             times,
             summaries,
@@ -523,9 +585,16 @@ mod tests {
             scan: &scan,
             time: &[],
         };
-        Grid::build(points, None, &s, frame, range, Carry::Slots, |z| {
-            Some((z > 0.75) as u32)
-        })
+        Grid::build(
+            points,
+            None,
+            &s,
+            frame,
+            &range,
+            Carry::Slots,
+            |z| (z > 0.75) as u8,
+            |_| true,
+        )
         .unwrap()
     }
 
@@ -554,7 +623,9 @@ mod tests {
         let part = grid(&xyz, Some(CellRange { i: 2..3, j: 0..2 }));
         assert_eq!(part.pts, vec![[0.12, 0.01, 1.0]]);
         assert_eq!(part.points(2, 0), 0..1);
-        assert_eq!(part.block(2, 0).count(), 2);
+        // The range holds its cells and a ring of neighbours around them.
+        assert_eq!(part.range, CellRange { i: 1..3, j: 0..2 });
+        assert_eq!(part.block(2, 0).count(), 4);
     }
 
     #[test]

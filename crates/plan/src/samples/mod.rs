@@ -178,20 +178,22 @@ pub(crate) fn scan_cells(
         Carry::Times if cloud.time.is_empty() => Carry::Nothing,
         c => c,
     };
+    let min_points = params.min_points.unwrap_or(ADAPTIVE_RANGE.0);
     let grid = Grid::build(
         points,
         spans,
         story,
         *frame,
-        core.grown(frame),
+        &core,
         carry,
-        |z| tests.bin_of(z),
+        |z| tests.bin_code(z),
+        |block| prefilter(&tests, block, min_points).is_ok(),
     )?;
     let scan = Scan {
         grid: &grid,
         tests: &tests,
         views: &views,
-        min_points: params.min_points.unwrap_or(ADAPTIVE_RANGE.0),
+        min_points,
         core: &core,
     };
     let rows: Vec<Row> = core
@@ -368,10 +370,24 @@ struct Row {
     tally: [usize; 6],
 }
 
-/// Per-thread buffers for a neighbourhood: its points, and what says who saw them.
+/// The 3 × 3 block bounds the neighbourhood: a cell is ruled out cheaply when even its
+/// block's summary fails the count, vertical-support or filled-bins tests.
+fn prefilter(tests: &Tests, block: &Summary, min_points: usize) -> Result<(), Reject> {
+    if (block.n as usize) < min_points {
+        return Err(Reject::TooFew);
+    }
+    if ((block.zmax - block.zmin) as f64) < tests.min_wall_height() {
+        return Err(Reject::TooShort);
+    }
+    tests.histogram(block.mask, min_points)
+}
+
+/// Per-thread buffers for a neighbourhood: its points and their height bins, and what says
+/// who saw them.
 #[derive(Default)]
 struct Scratch {
     pts: Vec<[f32; 3]>,
+    bins: Vec<u8>,
     slots: Vec<u16>,
     times: Vec<f64>,
 }
@@ -412,34 +428,20 @@ impl Scan<'_> {
     /// Tests cell `(i, j)`. `Ok(None)` for a cell with no points around it.
     fn cell(&self, i: usize, j: usize, s: &mut Scratch) -> Result<Option<Found>, Reject> {
         let g = self.grid;
-        // The 3 × 3 block bounds the neighbourhood: rule the cell out cheaply when even the
-        // block fails the count, vertical-support or filled-bins tests.
-        let mut n = 0;
         let mut block = Summary::default();
         for (a, b) in g.block(i, j) {
-            let c = g.id(a, b);
-            n += (g.start[c + 1] - g.start[c]) as usize;
-            let m = &g.summaries[c];
-            block.zmin = block.zmin.min(m.zmin);
-            block.zmax = block.zmax.max(m.zmax);
-            block.mask |= m.mask;
+            block.merge(&g.summaries[g.id(a, b)]);
         }
-        if n == 0 {
+        if block.n == 0 {
             return Ok(None);
         }
-        if n < self.min_points {
-            return Err(Reject::TooFew);
-        }
-        if ((block.zmax - block.zmin) as f64) < self.tests.min_wall_height() {
-            return Err(Reject::TooShort);
-        }
-        self.tests.histogram(block.mask, self.min_points)?;
+        prefilter(self.tests, &block, self.min_points)?;
         self.gather(i, j, s);
         let lo = g.frame.corner(i, j);
         let count = s.pts.len();
         let wall = match self
             .tests
-            .run(&mut s.pts, lo, g.frame.cell, self.min_points)
+            .run_binned(&mut s.pts, &s.bins, lo, g.frame.cell, self.min_points)
         {
             Ok(w) => w,
             Err(r) if r.wall_like() => {
@@ -476,6 +478,7 @@ impl Scan<'_> {
         let (cx, cy) = (lo[0] + cell / 2.0, lo[1] + cell / 2.0);
         let r2 = cell * cell;
         s.pts.clear();
+        s.bins.clear();
         s.slots.clear();
         s.times.clear();
         for (a, b) in g.block(i, j) {
@@ -484,6 +487,7 @@ impl Scan<'_> {
                 let (dx, dy) = (p[0] as f64 - cx, p[1] as f64 - cy);
                 if dx * dx + dy * dy <= r2 {
                     s.pts.push(p);
+                    s.bins.push(g.bins[k]);
                     if let Some(&slot) = g.slots.get(k) {
                         s.slots.push(slot);
                     }
