@@ -30,6 +30,8 @@ enum Command {
     Worker(cli::serve::WorkerArgs),
     /// Ask a running server or worker for /healthz; exit 0 when healthy (for container health checks).
     Healthcheck(cli::healthcheck::HealthcheckArgs),
+    /// Time the pipeline per stage on generated buildings of 1 M to 70 M points (see benches/README.md).
+    Bench(cli::bench::BenchArgs),
 }
 
 fn main() -> ExitCode {
@@ -42,7 +44,12 @@ fn main() -> ExitCode {
         Command::Migrate(a) => cli::serve::migrate(a),
         Command::Worker(a) => cli::serve::worker(a),
         Command::Healthcheck(a) => cli::healthcheck::run(a),
+        Command::Bench(a) => cli::bench::run(a),
     };
+    // `asbuilt bench` measures each child's peak memory this way.
+    if let Some(path) = std::env::var_os(cli::bench::PEAK_RSS_ENV) {
+        cli::bench::write_peak_rss(std::path::Path::new(&path));
+    }
     match result {
         Ok(code) => code,
         Err(e) => {

@@ -9,6 +9,7 @@ use anyhow::{bail, Context};
 use asbuilt_plan::cloud::PointCloud;
 use asbuilt_plan::io::{self, dxf, geojson, poses, svg, Format, ReadOptions};
 use asbuilt_plan::progress::Stage;
+use asbuilt_plan::streaming::{self, Sidecar, StreamingParams};
 use asbuilt_plan::{FloorPlan, Params};
 
 use super::progress::Bar;
@@ -49,6 +50,14 @@ pub struct PlanArgs {
     /// No progress bar, timings or notes on standard error.
     #[arg(short, long)]
     pub quiet: bool,
+    /// Stream the cloud instead of holding it in memory, keeping the run's data within SIZE
+    /// (e.g. `1GiB`, `512MiB`): for scans larger than memory. PLY, LAS and LAZ; the plan is
+    /// the in-memory one. Tile files go to the system's temporary folder (`TMPDIR`).
+    #[arg(long, value_name = "SIZE")]
+    pub max_memory: Option<String>,
+    /// Write every stage's time, writing included, as a JSON object (for `asbuilt bench`).
+    #[arg(long, value_name = "FILE", hide = true)]
+    pub timings: Option<PathBuf>,
 }
 
 /// How to read the input; shared by `plan` and `info`.
@@ -88,6 +97,9 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
     for out in [&args.output, &args.svg, &args.dxf].into_iter().flatten() {
         check_writable(out)?;
     }
+    if let Some(budget) = &args.max_memory {
+        return run_streaming(&args, &params, parse_size(budget)?, start);
+    }
     let bar = Bar::new(args.quiet);
     bar.stage(Stage::Read);
     let read_start = Instant::now();
@@ -115,10 +127,112 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
     write_outputs(&args, &plan)?;
     let write_ms = write_start.elapsed().as_millis() as u64;
 
+    let total_ms = start.elapsed().as_millis() as u64;
+    if let Some(path) = &args.timings {
+        write_timings(path, &plan, write_ms, total_ms)?;
+    }
     if !args.quiet {
-        report(&plan, write_ms, start.elapsed().as_millis() as u64);
+        report_plan(&plan, write_ms, total_ms);
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `asbuilt plan --max-memory`: two passes over the file, tiles on disk.
+fn run_streaming(
+    args: &PlanArgs,
+    params: &Params,
+    budget: u64,
+    start: Instant,
+) -> anyhow::Result<ExitCode> {
+    let s = args.read.scale.unwrap_or(1.0);
+    let sidecar = match (&args.poses, &args.trajectory) {
+        (Some(path), _) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            let mut scans =
+                poses::parse_poses(&text).with_context(|| format!("{}", path.display()))?;
+            for p in &mut scans {
+                p.position = p.position.map(|c| c * s);
+            }
+            Sidecar::Poses(scans)
+        }
+        (None, Some(path)) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading {}", path.display()))?;
+            let mut samples =
+                poses::parse_trajectory(&text).with_context(|| format!("{}", path.display()))?;
+            for p in &mut samples {
+                p.position = p.position.map(|c| c * s);
+            }
+            Sidecar::Trajectory(samples)
+        }
+        (None, None) => Sidecar::None,
+    };
+    let stream = StreamingParams {
+        max_memory: budget,
+        temp_dir: None,
+    };
+    let mut bar = Bar::new(args.quiet);
+    let result = streaming::plan_file(
+        &args.input,
+        &args.read.options(args.trajectory.is_some()),
+        sidecar,
+        params,
+        &stream,
+        &mut bar,
+    );
+    bar.finish();
+    let (mut plan, report) = result.with_context(|| format!("{}", args.input.display()))?;
+    if let Some(s) = args.read.scale {
+        plan.notes
+            .push(format!("input coordinates were multiplied by {s}"));
+    }
+    let write_start = Instant::now();
+    write_outputs(args, &plan)?;
+    let write_ms = write_start.elapsed().as_millis() as u64;
+    let total_ms = start.elapsed().as_millis() as u64;
+    if let Some(path) = &args.timings {
+        write_timings(path, &plan, write_ms, total_ms)?;
+    }
+    if !args.quiet {
+        eprintln!(
+            "streamed {} points in {} × {} tiles (at most {} points each, halo included), {:.0} MB of tile files",
+            report.points,
+            report.tiles.0,
+            report.tiles.1,
+            report.max_tile_points,
+            report.spilled_bytes as f64 / 1e6
+        );
+        report_plan(&plan, write_ms, total_ms);
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `1GiB`, `512MiB`, `2G` (binary), `1.5GB` (decimal), or plain bytes.
+fn parse_size(text: &str) -> anyhow::Result<u64> {
+    let t = text.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (num, unit) = t.split_at(split);
+    let mult: f64 = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 1.0,
+        "k" | "kib" => 1024.0,
+        "kb" => 1e3,
+        "m" | "mib" => 1024.0 * 1024.0,
+        "mb" => 1e6,
+        "g" | "gib" => 1024.0 * 1024.0 * 1024.0,
+        "gb" => 1e9,
+        "t" | "tib" => 1024f64.powi(4),
+        "tb" => 1e12,
+        _ => bail!("--max-memory: unknown unit in {text:?} (use e.g. 1GiB, 512MiB, 2GB)"),
+    };
+    let v: f64 = num
+        .parse()
+        .ok()
+        .filter(|v: &f64| v.is_finite() && *v > 0.0)
+        .with_context(|| format!("--max-memory: {text:?} is not a size like 1GiB"))?;
+    Ok((v * mult) as u64)
 }
 
 /// Defaults, then the file, then `--param`s in order, then the dedicated flags.
@@ -248,8 +362,25 @@ fn write_outputs(args: &PlanArgs, plan: &FloorPlan) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The plan's stage times, then `write` and the run's `total`, as one JSON object.
+fn write_timings(
+    path: &Path,
+    plan: &FloorPlan,
+    write_ms: u64,
+    total_ms: u64,
+) -> anyhow::Result<()> {
+    let mut map = serde_json::Map::new();
+    for (name, ms) in plan.timings_ms.iter().filter(|(n, _)| n != "total") {
+        map.insert(name.clone(), (*ms).into());
+    }
+    map.insert("write".into(), write_ms.into());
+    map.insert("total".into(), total_ms.into());
+    std::fs::write(path, serde_json::Value::Object(map).to_string())
+        .with_context(|| format!("writing {}", path.display()))
+}
+
 /// Stories, per-stage timings and notes, on standard error so stdout stays pure GeoJSON.
-fn report(plan: &FloorPlan, write_ms: u64, total_ms: u64) {
+fn report_plan(plan: &FloorPlan, write_ms: u64, total_ms: u64) {
     let mut err = std::io::stderr().lock();
     let _ = writeln!(
         err,
@@ -338,6 +469,8 @@ mod tests {
             read: ReadArgs::default(),
             emit_samples: false,
             quiet: true,
+            max_memory: None,
+            timings: None,
         };
         write_outputs(&args, &square_plan()).unwrap();
         let text = std::fs::read_to_string(dir.path().join("plan.geojson")).unwrap();
@@ -360,6 +493,18 @@ mod tests {
         assert!(check_writable(Path::new("plan.svg")).is_ok());
         let err = check_writable(&dir.path().join("nope").join("plan.svg")).unwrap_err();
         assert!(err.to_string().contains("nope"), "{err}");
+    }
+
+    #[test]
+    fn sizes_parse_with_binary_and_decimal_units() {
+        assert_eq!(parse_size("1GiB").unwrap(), 1 << 30);
+        assert_eq!(parse_size("512MiB").unwrap(), 512 << 20);
+        assert_eq!(parse_size("2G").unwrap(), 2 << 30);
+        assert_eq!(parse_size("1.5GB").unwrap(), 1_500_000_000);
+        assert_eq!(parse_size("4096").unwrap(), 4096);
+        assert!(parse_size("lots").is_err());
+        assert!(parse_size("1 parsec").is_err());
+        assert!(parse_size("0").is_err());
     }
 
     #[test]

@@ -3,6 +3,7 @@
 //! Coordinates are stored as `f32` relative to a local `origin` (12 bytes a point), so that
 //! georeferenced clouds with large offsets keep millimetre precision without doubling memory.
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// A point cloud in a local frame: world = `origin` + local.
@@ -125,10 +126,11 @@ impl PointCloud {
                 self.xyz.len()
             ));
         }
+        // Both scans over the points run on every core: they touch the whole cloud.
         if let Some(bad) = self
             .scan
-            .iter()
-            .find(|&&s| s as usize >= self.scan_ids.len())
+            .par_iter()
+            .find_first(|&&s| s as usize >= self.scan_ids.len())
         {
             return Err(format!(
                 "scan slot {bad} but only {} scans",
@@ -144,7 +146,11 @@ impl PointCloud {
                 ));
             }
         }
-        if self.xyz.iter().any(|p| !p.iter().all(|c| c.is_finite())) {
+        if self
+            .xyz
+            .par_iter()
+            .any(|p| !p.iter().all(|c| c.is_finite()))
+        {
             return Err("non-finite coordinate".into());
         }
         Ok(())

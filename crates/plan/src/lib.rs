@@ -29,6 +29,7 @@ pub mod samples;
 pub mod simulate;
 pub mod smoothing;
 pub mod stories;
+pub mod streaming;
 
 pub use cloud::PointCloud;
 pub use params::Params;

@@ -6,13 +6,13 @@ use crate::boundary::{trace_boundary, BoundaryError};
 use crate::cleanup::clean_labels;
 use crate::cloud::PointCloud;
 use crate::fitting::{fit_walls, FittingError};
-use crate::labeling::{label, LabelingError};
+use crate::labeling::{label_with_report, LabelingError};
 use crate::params::Params;
 use crate::plan::{FloorPlan, InputSummary, StoryPlan};
 use crate::progress::{Progress, Stage};
-use crate::samples::{sample_walls, SamplesError};
+use crate::samples::{check_params, sample_walls_in, SamplesError, StoryBounds, WallSamples};
 use crate::smoothing::{smooth_samples, SmoothingError};
-use crate::stories::{split_stories, StoriesError, Story};
+use crate::stories::{split_cloud_stories, StoriesError, Story};
 
 /// Why a plan could not be made. Each variant names the stage.
 #[derive(Debug, thiserror::Error)]
@@ -57,20 +57,35 @@ impl PlanError {
     }
 }
 
+/// The `timings_ms` key of the Delaunay triangulation, the first part of labeling (§3.3).
+pub const TRIANGULATE: &str = "triangulate";
+
 /// Accumulates per-stage wall time in pipeline order.
 #[derive(Default)]
-struct Timings(Vec<(String, u64)>);
+pub(crate) struct Timings(Vec<(String, f64)>);
 
 impl Timings {
-    fn time<T>(&mut self, stage: Stage, f: impl FnOnce() -> T) -> T {
+    pub(crate) fn time<T>(&mut self, stage: Stage, f: impl FnOnce() -> T) -> T {
         let start = Instant::now();
         let out = f();
-        let ms = start.elapsed().as_millis() as u64;
-        match self.0.iter_mut().find(|(n, _)| n == stage.name()) {
-            Some((_, total)) => *total += ms,
-            None => self.0.push((stage.name().to_string(), ms)),
-        }
+        self.add(stage.name(), start.elapsed().as_secs_f64() * 1e3);
         out
+    }
+
+    /// Adds `ms` to the stage `name`. Fractions are kept until the end, so stages run once per
+    /// story do not each lose their sub-millisecond part.
+    pub(crate) fn add(&mut self, name: &str, ms: f64) {
+        match self.0.iter_mut().find(|(n, _)| n == name) {
+            Some((_, total)) => *total += ms,
+            None => self.0.push((name.to_string(), ms)),
+        }
+    }
+
+    fn into_ms(self) -> Vec<(String, u64)> {
+        self.0
+            .into_iter()
+            .map(|(n, ms)| (n, ms.round() as u64))
+            .collect()
     }
 }
 
@@ -86,18 +101,65 @@ pub fn plan(
     }
     cloud.check().map_err(PlanError::BadCloud)?;
     let mut timings = Timings::default();
-    let mut notes = Vec::new();
     progress.report(Stage::Stories, 0.0);
-    let z: Vec<f32> = cloud.xyz.iter().map(|p| p[2]).collect();
-    let stories = timings.time(Stage::Stories, || split_stories(&z, &params.stories))?;
-    drop(z);
+    let stories = timings.time(Stage::Stories, || {
+        split_cloud_stories(&cloud.xyz, &params.stories)
+    })?;
+    // One pass finds where every story's grid lies.
+    let (bounds, blocks) = timings.time(Stage::Samples, || {
+        StoryBounds::measure_all(&cloud.xyz, &stories)
+    });
+    let mut sample = |story: &Story| {
+        let p = &params.samples;
+        check_params(p, story)?;
+        let frame = bounds[story.level].frame(story, p.cell_size)?;
+        sample_walls_in(cloud, story, p, &frame, Some(&blocks.spans(story)))
+    };
+    let summary = CloudSummary::of(cloud, cloud.len() as u64);
+    plan_stories(
+        &summary,
+        &stories,
+        params,
+        progress,
+        timings,
+        start,
+        &mut sample,
+    )
+}
+
+/// What a plan reports of its input, for clouds held whole or read in pieces.
+pub(crate) struct CloudSummary<'a> {
+    pub cloud: &'a PointCloud,
+    /// Points read (the cloud itself may hold none of them).
+    pub points: u64,
+}
+
+impl<'a> CloudSummary<'a> {
+    pub fn of(cloud: &'a PointCloud, points: u64) -> Self {
+        CloudSummary { cloud, points }
+    }
+}
+
+/// Every stage after the stories, story by story; `sample` gives a story's wall samples.
+/// Stories that fail are noted and skipped; the plan fails only when none succeeds.
+pub(crate) fn plan_stories(
+    input: &CloudSummary<'_>,
+    stories: &[Story],
+    params: &Params,
+    progress: &mut dyn Progress,
+    mut timings: Timings,
+    start: Instant,
+    sample: &mut dyn FnMut(&Story) -> Result<WallSamples, SamplesError>,
+) -> Result<FloorPlan, PlanError> {
+    let cloud = input.cloud;
+    let mut notes = Vec::new();
     let mut plans = Vec::new();
     let mut parameters = params.to_json();
     let mut min_points_used = Vec::new();
     let mut failures = Vec::new();
     for (i, story) in stories.iter().enumerate() {
         let at = |k: f64| (i as f64 + k) / stories.len() as f64;
-        match plan_story(cloud, story, params, progress, &mut timings, at) {
+        match plan_story(story, params, progress, &mut timings, at, &mut *sample) {
             Ok((story_plan, used, story_notes)) => {
                 min_points_used.push(used);
                 notes.extend(
@@ -124,15 +186,13 @@ pub fn plan(
     if params.samples.min_points.is_none() {
         parameters["samples"]["min_points_derived"] = serde_json::json!(min_points_used);
     }
-    timings
-        .0
-        .push(("total".into(), start.elapsed().as_millis() as u64));
+    timings.add("total", start.elapsed().as_secs_f64() * 1e3);
     progress.report(Stage::Write, 1.0);
     Ok(FloorPlan {
         origin: cloud.origin,
         crs: cloud.crs.clone(),
         input: InputSummary {
-            points: cloud.len() as u64,
+            points: input.points,
             format: cloud.source.format.clone(),
             scans: match &cloud.viewpoints {
                 crate::cloud::Viewpoints::Static(p) => p.len(),
@@ -140,19 +200,19 @@ pub fn plan(
             },
         },
         parameters,
-        timings_ms: timings.0,
+        timings_ms: timings.into_ms(),
         stories: plans,
         notes,
     })
 }
 
 fn plan_story(
-    cloud: &PointCloud,
     story: &Story,
     params: &Params,
     progress: &mut dyn Progress,
     timings: &mut Timings,
     at: impl Fn(f64) -> f64,
+    sample: &mut dyn FnMut(&Story) -> Result<WallSamples, SamplesError>,
 ) -> Result<(StoryPlan, usize, Vec<String>), PlanError> {
     let mut step = |stage: Stage, k: f64| {
         progress.report(stage, at(k));
@@ -163,15 +223,22 @@ fn plan_story(
         }
     };
     step(Stage::Samples, 0.0)?;
-    let mut samples = timings.time(Stage::Samples, || {
-        sample_walls(cloud, story, &params.samples)
-    })?;
+    let mut samples = timings.time(Stage::Samples, || sample(story))?;
     step(Stage::Smoothing, 0.4)?;
     timings.time(Stage::Smoothing, || {
         smooth_samples(&mut samples, params.samples.cell_size, &params.smoothing)
     })?;
     step(Stage::Labeling, 0.5)?;
-    let mut labeled = timings.time(Stage::Labeling, || label(&samples, &params.labeling))?;
+    // The triangulation is reported on its own, ahead of the labeling proper.
+    timings.add(TRIANGULATE, 0.0);
+    let start = Instant::now();
+    let (mut labeled, report) = label_with_report(&samples, &params.labeling)?;
+    let mesh_ms = report.timings.mesh_ms;
+    timings.add(TRIANGULATE, mesh_ms);
+    timings.add(
+        Stage::Labeling.name(),
+        (start.elapsed().as_secs_f64() * 1e3 - mesh_ms).max(0.0),
+    );
     step(Stage::Cleanup, 0.8)?;
     timings.time(Stage::Cleanup, || {
         clean_labels(&mut labeled, &params.cleanup)

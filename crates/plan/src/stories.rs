@@ -68,28 +68,68 @@ const MIN_JUMP: f64 = 1.5;
 
 /// Finds the stories of a cloud from the heights `z` of its points (local frame).
 pub fn split_stories(z: &[f32], params: &StoriesParams) -> Result<Vec<Story>, StoriesError> {
+    split_by(z, |v| *v, params)
+}
+
+/// Finds the stories of a cloud from its points' local coordinates, without copying the heights
+/// out.
+pub fn split_cloud_stories(
+    xyz: &[[f32; 3]],
+    params: &StoriesParams,
+) -> Result<Vec<Story>, StoriesError> {
+    split_by(xyz, |p| p[2], params)
+}
+
+fn split_by<T: Sync>(
+    points: &[T],
+    z: impl Fn(&T) -> f32 + Sync,
+    params: &StoriesParams,
+) -> Result<Vec<Story>, StoriesError> {
     check_params(params)?;
-    if z.is_empty() {
+    if points.is_empty() {
         return Err(StoriesError::Empty);
     }
-    let hist = Histogram::build(z, params.bin_size)?;
-    let mut tried = Vec::new();
-    for dense in hist.dense_sets() {
-        let candidates = hist.peaks(&dense);
-        match assemble(&candidates, params.min_wall_height) {
-            Some(levels) => return Ok(hist.partition(&levels)),
-            None => tried.push(describe(&candidates)),
-        }
-    }
-    Err(StoriesError::NotFound(if tried.is_empty() {
-        "the heights are spread evenly, with no dense floor or ceiling level".into()
-    } else {
-        format!(
-            "no two dense levels are {} m apart (candidates: {})",
-            params.min_wall_height,
-            tried.join("; ")
+    let (lo, hi, bad) = points
+        .par_iter()
+        .fold(
+            || (f32::INFINITY, f32::NEG_INFINITY, 0usize),
+            |(lo, hi, bad), p| {
+                let v = z(p);
+                if v.is_finite() {
+                    (lo.min(v), hi.max(v), bad)
+                } else {
+                    (lo, hi, bad + 1)
+                }
+            },
         )
-    }))
+        .reduce(
+            || (f32::INFINITY, f32::NEG_INFINITY, 0),
+            |a, b| (a.0.min(b.0), a.1.max(b.1), a.2 + b.2),
+        );
+    if bad > 0 {
+        return Err(StoriesError::NonFinite(bad));
+    }
+    // Per-thread histograms over parts of the cloud, merged: no atomics, memory bins × threads.
+    let empty = HeightHistogram::new(lo, hi, params)?;
+    let part = points
+        .len()
+        .div_ceil(rayon::current_num_threads().max(1))
+        .max(1 << 16);
+    let hist = points
+        .par_chunks(part)
+        .map(|chunk| {
+            let mut h = empty.clone();
+            chunk.iter().for_each(|p| h.add(z(p)));
+            h
+        })
+        .reduce(
+            || empty.clone(),
+            |mut a, b| {
+                a.merge(&b);
+                a
+            },
+        );
+    hist.stories(params)
 }
 
 impl StoriesParams {
@@ -98,6 +138,90 @@ impl StoriesParams {
         check_params(self)
     }
 }
+
+/// The height histogram [`split_stories`] works from, built a point at a time and merged from
+/// parts, for clouds read in pieces ([`crate::streaming`]). The bins start at the lowest height,
+/// so the lowest and highest (finite) heights must be known first. Any order of adding and
+/// merging gives the same histogram: per-bin sums are kept in fixed point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeightHistogram {
+    hist: Histogram,
+}
+
+impl HeightHistogram {
+    /// An empty histogram for heights from `z_lo` to `z_hi` (both finite).
+    pub fn new(
+        z_lo: f32,
+        z_hi: f32,
+        params: &StoriesParams,
+    ) -> Result<HeightHistogram, StoriesError> {
+        check_params(params)?;
+        let (z_lo, z_hi, bin) = (z_lo as f64, z_hi as f64, params.bin_size);
+        let bins = ((z_hi - z_lo) / bin) as usize + 1;
+        if bins > MAX_BINS {
+            return Err(StoriesError::TooTall {
+                range: z_hi - z_lo,
+                bins,
+            });
+        }
+        Ok(HeightHistogram {
+            hist: Histogram {
+                z_lo,
+                z_hi,
+                bin,
+                count: vec![0; bins],
+                sum: vec![0; bins],
+            },
+        })
+    }
+
+    /// Counts one height, which must lie between the histogram's lowest and highest.
+    #[inline]
+    pub fn add(&mut self, v: f32) {
+        let h = &mut self.hist;
+        let d = v as f64 - h.z_lo;
+        let i = ((d / h.bin) as usize).min(h.count.len() - 1);
+        h.count[i] += 1;
+        h.sum[i] += (d * SUM_SCALE) as i64 as i128;
+    }
+
+    /// Adds the counts of `other`, a histogram over the same heights.
+    pub fn merge(&mut self, other: &HeightHistogram) {
+        let (a, b) = (&mut self.hist, &other.hist);
+        a.count.iter_mut().zip(&b.count).for_each(|(x, y)| *x += y);
+        a.sum.iter_mut().zip(&b.sum).for_each(|(x, y)| *x += y);
+    }
+
+    /// The stories (§3.1) of the heights counted.
+    pub fn stories(&self, params: &StoriesParams) -> Result<Vec<Story>, StoriesError> {
+        check_params(params)?;
+        let hist = &self.hist;
+        if hist.count.iter().all(|&c| c == 0) {
+            return Err(StoriesError::Empty);
+        }
+        let mut tried = Vec::new();
+        for dense in hist.dense_sets() {
+            let candidates = hist.peaks(&dense);
+            match assemble(&candidates, params.min_wall_height) {
+                Some(levels) => return Ok(hist.partition(&levels)),
+                None => tried.push(describe(&candidates)),
+            }
+        }
+        Err(StoriesError::NotFound(if tried.is_empty() {
+            "the heights are spread evenly, with no dense floor or ceiling level".into()
+        } else {
+            format!(
+                "no two dense levels are {} m apart (candidates: {})",
+                params.min_wall_height,
+                tried.join("; ")
+            )
+        }))
+    }
+}
+
+/// Fixed-point scale of the per-bin height sums (heights above the lowest, in 2^-32 m), so that
+/// sums do not depend on the order points are added in.
+const SUM_SCALE: f64 = 4_294_967_296.0;
 
 fn check_params(params: &StoriesParams) -> Result<(), StoriesError> {
     let positive = |name, v: f64| {
@@ -135,70 +259,17 @@ struct Levels {
 }
 
 /// Height histogram with per-bin sums of z, so peaks can be located finer than a bin.
+#[derive(Debug, Clone, PartialEq)]
 struct Histogram {
     z_lo: f64,
     z_hi: f64,
     bin: f64,
     count: Vec<u64>,
-    sum: Vec<f64>,
+    /// Per bin, the sum of its heights above `z_lo`, in units of 1 / [`SUM_SCALE`] m.
+    sum: Vec<i128>,
 }
 
 impl Histogram {
-    fn build(z: &[f32], bin: f64) -> Result<Histogram, StoriesError> {
-        let bad = z.par_iter().filter(|v| !v.is_finite()).count();
-        if bad > 0 {
-            return Err(StoriesError::NonFinite(bad));
-        }
-        let (lo, hi) = z
-            .par_iter()
-            .fold(
-                || (f32::INFINITY, f32::NEG_INFINITY),
-                |(lo, hi), &v| (lo.min(v), hi.max(v)),
-            )
-            .reduce(
-                || (f32::INFINITY, f32::NEG_INFINITY),
-                |a, b| (a.0.min(b.0), a.1.max(b.1)),
-            );
-        let (z_lo, z_hi) = (lo as f64, hi as f64);
-        let bins = ((z_hi - z_lo) / bin) as usize + 1;
-        if bins > MAX_BINS {
-            return Err(StoriesError::TooTall {
-                range: z_hi - z_lo,
-                bins,
-            });
-        }
-        let index = |v: f32| (((v as f64 - z_lo) / bin) as usize).min(bins - 1);
-        // Per-thread histograms over chunks, summed: no atomics, memory bins × threads.
-        let (count, sum) = z
-            .par_chunks(1 << 16)
-            .fold(
-                || (vec![0u64; bins], vec![0f64; bins]),
-                |(mut c, mut s), chunk| {
-                    for &v in chunk {
-                        let i = index(v);
-                        c[i] += 1;
-                        s[i] += v as f64;
-                    }
-                    (c, s)
-                },
-            )
-            .reduce(
-                || (vec![0u64; bins], vec![0f64; bins]),
-                |(mut c, mut s), (c2, s2)| {
-                    c.iter_mut().zip(&c2).for_each(|(a, b)| *a += b);
-                    s.iter_mut().zip(&s2).for_each(|(a, b)| *a += b);
-                    (c, s)
-                },
-            );
-        Ok(Histogram {
-            z_lo,
-            z_hi,
-            bin,
-            count,
-            sum,
-        })
-    }
-
     /// Dense bin sets to try, best first: for each discontinuity of the sorted counts, in order
     /// of decreasing ratio, the bins before it. The paper takes only the greatest; trying the
     /// next ones (beyond the paper) rescues clouds whose floor is far denser than the ceiling.
@@ -245,9 +316,9 @@ impl Histogram {
             .map(|i| {
                 let window = (i.saturating_sub(1)..(i + 2).min(self.count.len()))
                     .filter(|&k| k == i || is_dense[k]);
-                let (n, s) = window.fold((0u64, 0f64), |(n, s), k| (n + c(k), s + self.sum[k]));
+                let (n, s) = window.fold((0u64, 0i128), |(n, s), k| (n + c(k), s + self.sum[k]));
                 Peak {
-                    z: s / n as f64,
+                    z: self.z_lo + s as f64 / SUM_SCALE / n as f64,
                     count: c(i),
                 }
             })

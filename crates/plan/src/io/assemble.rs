@@ -98,6 +98,26 @@ impl CloudBuilder {
         &mut self.cloud
     }
 
+    /// The cloud so far without its points, as [`Self::finish`] would record it; for chunked
+    /// reads, whose points are handed over as they come.
+    pub fn skeleton(&self, details: String) -> PointCloud {
+        let c = &self.cloud;
+        let mut out = PointCloud {
+            origin: self.origin.unwrap_or([0.0; 3]),
+            scan_ids: c.scan_ids.clone(),
+            viewpoints: c.viewpoints.clone(),
+            crs: c.crs.clone(),
+            source: c.source.clone(),
+            ..Default::default()
+        };
+        out.source.details = details;
+        out.source.skipped += self.skipped;
+        if out.source.skipped > 0 && out.source.skipped_reason.is_none() {
+            out.source.skipped_reason = Some("non-finite coordinates".into());
+        }
+        out
+    }
+
     /// Finishes the cloud: trims spare capacity and records what was skipped.
     pub fn finish(mut self, details: String) -> PointCloud {
         let c = &mut self.cloud;

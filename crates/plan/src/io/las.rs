@@ -8,6 +8,10 @@ use std::io::{Read, Seek, SeekFrom};
 
 use las::{PointDataBuilder, Reader};
 
+mod chunks;
+
+pub use chunks::LasChunks;
+
 use super::assemble::CloudBuilder;
 use super::{ReadError, ReadOptions};
 use crate::cloud::PointCloud;

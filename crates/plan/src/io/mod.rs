@@ -1,6 +1,7 @@
 //! Reading clouds and pose sidecars, and writing plans. The only module that touches files.
 
 mod assemble;
+pub mod chunks;
 pub mod detect;
 pub mod dxf;
 pub mod e57;
@@ -9,6 +10,7 @@ pub mod geojson;
 pub mod las;
 pub mod ply;
 pub mod poses;
+pub mod spill;
 pub mod svg;
 mod units;
 pub mod xyz;

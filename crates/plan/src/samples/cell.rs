@@ -50,6 +50,9 @@ impl Reject {
     }
 }
 
+/// The bin code of a height outside every bin.
+pub(super) const NO_BIN: u8 = u8::MAX;
+
 /// A cell that passed: its sample position, unit normal (unoriented) and confidence.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Wall {
@@ -155,9 +158,29 @@ impl Tests {
 
     /// Runs every test on the neighbourhood `pts` of the cell whose lower-left corner is `lo`
     /// and width `cell`. Reorders `pts` (median selection).
+    #[cfg(test)]
     pub fn run(
         &self,
         pts: &mut [[f32; 3]],
+        lo: P2,
+        cell: f64,
+        min_points: usize,
+    ) -> Result<Wall, Reject> {
+        let bins: Vec<u8> = pts.iter().map(|p| self.bin_code(p[2])).collect();
+        self.run_binned(pts, &bins, lo, cell, min_points)
+    }
+
+    /// [`Self::bin_of`] as a byte, [`NO_BIN`] for `None`, for storing beside each point.
+    #[inline]
+    pub fn bin_code(&self, z: f32) -> u8 {
+        self.bin_of(z).map_or(NO_BIN, |b| b as u8)
+    }
+
+    /// [`Self::run`] with each point's height bin given (see [`Self::bin_code`]).
+    pub fn run_binned(
+        &self,
+        pts: &mut [[f32; 3]],
+        bins: &[u8],
         lo: P2,
         cell: f64,
         min_points: usize,
@@ -171,14 +194,17 @@ impl Tests {
         if ((zmax - zmin) as f64) < self.min_wall_height {
             return Err(Reject::TooShort);
         }
-        let last = self.bins as u32 - 1;
-        let (mask, n) = pts
+        let last = self.bins as u8 - 1;
+        let (mask, n) = bins
             .iter()
-            .filter_map(|p| self.bin_of(p[2]))
-            .fold((0u32, 0usize), |(m, n), b| {
+            .filter(|&&b| b != NO_BIN)
+            .fold((0u32, 0usize), |(m, n), &b| {
                 (m | 1 << b, n + usize::from(b != 0 && b != last))
             });
         self.histogram(mask, n)?;
+        if median_outside(pts, lo, cell) {
+            return Err(Reject::MedianOutside);
+        }
         let pos = median_xy(pts);
         let inside = |k: usize| pos[k] >= lo[k] && pos[k] < lo[k] + cell;
         if !(inside(0) && inside(1)) {
@@ -216,6 +242,25 @@ fn likely_filled(bins: usize, p: f64, cap: usize) -> u32 {
         }
     }
     0
+}
+
+/// True when counting alone proves the median (of [`median_xy`]) lies outside the cell at
+/// `lo`: more than the points below the median's rank lie on one side of it. Most cells next
+/// to a wall fail so, and counting is much cheaper than selecting.
+fn median_outside(pts: &[[f32; 3]], lo: P2, cell: f64) -> bool {
+    let mid = pts.len() / 2;
+    let mut below = [0usize; 2];
+    let mut above = [0usize; 2];
+    for p in pts {
+        for k in 0..2 {
+            let v = p[k] as f64;
+            below[k] += usize::from(v < lo[k]);
+            above[k] += usize::from(v >= lo[k] + cell);
+        }
+    }
+    // The median is element `mid` in sorted order: below the cell when `mid + 1` points are,
+    // at or beyond its far edge when `len - mid` points are.
+    (0..2).any(|k| below[k] > mid || above[k] >= pts.len() - mid)
 }
 
 /// The component-wise median of x and y (the upper median for an even count).

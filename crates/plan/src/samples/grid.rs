@@ -1,5 +1,13 @@
-//! The d_s grid over one story: point indices counting-sorted by cell, so that a cell's points
-//! are one contiguous run of `order`. Only index arrays are allocated; the cloud is not copied.
+//! The d_s grid over one story. The story's points are counting-sorted by cell into a copy of
+//! their own, so that a cell's points are one contiguous run and a neighbourhood is read
+//! sequentially, not gathered from all over the cloud. Within a cell the points keep the
+//! cloud's order, which makes every sum over a neighbourhood the same however the grid was
+//! built (whole, or tile by tile in the streaming mode).
+//!
+//! Where the grid lies ([`GridFrame`]) is fixed by the horizontal bounds of all the story's
+//! points ([`StoryBounds`]); a [`Grid`] may hold only a range of its cells.
+
+use std::ops::Range;
 
 use rayon::prelude::*;
 
@@ -8,132 +16,36 @@ use crate::stories::Story;
 
 /// The most cells a story's grid may have (about 200 m × 200 m at 5 cm). Beyond it the cloud
 /// holds far outliers, and the per-cell arrays would waste memory.
-pub(super) const MAX_CELLS: usize = 1 << 24;
+pub(crate) const MAX_CELLS: usize = 1 << 24;
 
-/// A story's points sorted by d_s grid cell. Cell `(i, j)` has id `j * nx + i`.
-pub(super) struct Grid {
+/// Where a story's grid lies: cell `(i, j)` spans `origin + [i, i + 1) × cell` in x and the
+/// same in y, for `i < nx`, `j < ny`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GridFrame {
     /// Local x, y of the lower-left corner of cell (0, 0).
     pub origin: [f64; 2],
     /// d_s, metres.
     pub cell: f64,
     pub nx: usize,
     pub ny: usize,
-    /// `order[start[c]..start[c + 1]]` are the indices of the points in cell `c`.
-    pub start: Vec<u32>,
-    pub order: Vec<u32>,
-    /// Per cell: the heights of its own points.
-    pub summaries: Vec<Summary>,
 }
 
-/// The heights of one cell's own points: their range, and which height bins they fill.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Summary {
-    pub zmin: f32,
-    pub zmax: f32,
-    pub mask: u32,
-}
-
-impl Default for Summary {
-    fn default() -> Self {
-        Summary {
-            zmin: f32::INFINITY,
-            zmax: f32::NEG_INFINITY,
-            mask: 0,
-        }
-    }
-}
-
-impl Grid {
-    /// Sorts the points of `story` (those with `z_min <= z < z_max`) into a grid of `cell` metres,
-    /// and summarizes each cell's heights with `bin_of`, the height bin of a z.
-    pub fn build(
-        xyz: &[[f32; 3]],
-        story: &Story,
-        cell: f64,
-        bin_of: impl Fn(f32) -> Option<u32>,
-    ) -> Result<Grid, SamplesError> {
-        if xyz.len() >= u32::MAX as usize {
-            return Err(SamplesError::TooLarge(format!(
-                "{} points exceed the 2^32 a story can index",
-                xyz.len()
-            )));
-        }
-        let in_story = |z: f32| (z as f64) >= story.z_min && (z as f64) < story.z_max;
-        let bounds = xyz
-            .par_iter()
-            .fold(Bounds::default, |b, p| b.add(p, in_story(p[2])))
-            .reduce(Bounds::default, Bounds::merge);
-        if bounds.non_finite > 0 {
-            return Err(SamplesError::NonFinite(bounds.non_finite));
-        }
-        if bounds.n == 0 {
-            return Err(SamplesError::EmptyStory { level: story.level });
-        }
-        let origin = [bounds.lo[0] as f64, bounds.lo[1] as f64];
-        let span = [
-            bounds.hi[0] as f64 - origin[0],
-            bounds.hi[1] as f64 - origin[1],
-        ];
-        let nx = (span[0] / cell) as usize + 1;
-        let ny = (span[1] / cell) as usize + 1;
-        if nx.saturating_mul(ny) > MAX_CELLS {
-            return Err(SamplesError::TooLarge(format!(
-                "story {} spans {:.0} m × {:.0} m, {nx} × {ny} cells of {cell} m; are there outliers?",
-                story.level, span[0], span[1]
-            )));
-        }
-        let inv = 1.0 / cell;
-        let cell_of = |p: &[f32; 3]| {
-            let i = (((p[0] as f64 - origin[0]) * inv) as usize).min(nx - 1);
-            let j = (((p[1] as f64 - origin[1]) * inv) as usize).min(ny - 1);
-            (j * nx + i) as u32
-        };
-        // Counting sort: cells in parallel, then counts, prefix sums and a scatter. The
-        // counting pass also summarizes heights, reading the cloud in its own order.
-        let ids: Vec<u32> = xyz
-            .par_iter()
-            .map(|p| if in_story(p[2]) { cell_of(p) } else { u32::MAX })
-            .collect();
-        let mut start = vec![0u32; nx * ny + 1];
-        let mut summaries = vec![Summary::default(); nx * ny];
-        for (&c, p) in ids.iter().zip(xyz) {
-            if c == u32::MAX {
-                continue;
-            }
-            start[c as usize + 1] += 1;
-            let s = &mut summaries[c as usize];
-            s.zmin = s.zmin.min(p[2]);
-            s.zmax = s.zmax.max(p[2]);
-            if let Some(b) = bin_of(p[2]) {
-                s.mask |= 1 << b;
-            }
-        }
-        for c in 0..nx * ny {
-            start[c + 1] += start[c];
-        }
-        let mut next = start.clone();
-        let mut order = vec![0u32; bounds.n];
-        for (k, &c) in ids.iter().enumerate() {
-            if c != u32::MAX {
-                order[next[c as usize] as usize] = k as u32;
-                next[c as usize] += 1;
-            }
-        }
-        Ok(Grid {
-            origin,
-            cell,
-            nx,
-            ny,
-            start,
-            order,
-            summaries,
-        })
+impl GridFrame {
+    /// The cell of a point (of the story). Points on the far edge go to the last cell.
+    #[inline]
+    pub fn cell_of(&self, p: &[f32; 3]) -> (usize, usize) {
+        let inv = 1.0 / self.cell;
+        let i = (((p[0] as f64 - self.origin[0]) * inv) as usize).min(self.nx - 1);
+        let j = (((p[1] as f64 - self.origin[1]) * inv) as usize).min(self.ny - 1);
+        (i, j)
     }
 
-    /// Indices of the points in cell `(i, j)`.
-    pub fn points(&self, i: usize, j: usize) -> &[u32] {
-        let c = j * self.nx + i;
-        &self.order[self.start[c] as usize..self.start[c + 1] as usize]
+    /// Every cell of the grid.
+    pub fn all(&self) -> CellRange {
+        CellRange {
+            i: 0..self.nx,
+            j: 0..self.ny,
+        }
     }
 
     /// The lower-left corner of cell `(i, j)`.
@@ -143,27 +55,50 @@ impl Grid {
             self.origin[1] + j as f64 * self.cell,
         ]
     }
+}
 
-    /// The cells of the 3 × 3 block around `(i, j)`, clipped to the grid.
-    pub fn block(&self, i: usize, j: usize) -> impl Iterator<Item = (usize, usize)> {
-        let (nx, ny) = (self.nx, self.ny);
-        let xs = i.saturating_sub(1)..(i + 2).min(nx);
-        (j.saturating_sub(1)..(j + 2).min(ny)).flat_map(move |b| xs.clone().map(move |a| (a, b)))
+/// A rectangle of cells, `i` by `j`, half-open.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CellRange {
+    pub i: Range<usize>,
+    pub j: Range<usize>,
+}
+
+impl CellRange {
+    pub fn is_empty(&self) -> bool {
+        self.i.is_empty() || self.j.is_empty()
+    }
+
+    fn width(&self) -> usize {
+        self.i.len()
+    }
+
+    fn cells(&self) -> usize {
+        self.i.len() * self.j.len()
+    }
+
+    /// The range grown by one cell on every side, clipped to `frame`.
+    pub fn grown(&self, frame: &GridFrame) -> CellRange {
+        CellRange {
+            i: self.i.start.saturating_sub(1)..(self.i.end + 1).min(frame.nx),
+            j: self.j.start.saturating_sub(1)..(self.j.end + 1).min(frame.ny),
+        }
     }
 }
 
-/// Horizontal bounds and count of a story's points, and the number of non-finite points.
-#[derive(Clone, Copy)]
-struct Bounds {
-    lo: [f32; 2],
-    hi: [f32; 2],
-    n: usize,
-    non_finite: usize,
+/// Horizontal bounds and count of a story's points, and the number of non-finite points seen.
+/// Bounds of parts of a cloud merge into the bounds of the whole.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StoryBounds {
+    pub lo: [f32; 2],
+    pub hi: [f32; 2],
+    pub n: usize,
+    pub non_finite: usize,
 }
 
-impl Default for Bounds {
+impl Default for StoryBounds {
     fn default() -> Self {
-        Bounds {
+        StoryBounds {
             lo: [f32::INFINITY; 2],
             hi: [f32::NEG_INFINITY; 2],
             n: 0,
@@ -172,11 +107,65 @@ impl Default for Bounds {
     }
 }
 
-impl Bounds {
-    fn add(mut self, p: &[f32; 3], inside: bool) -> Bounds {
+/// Whether height `z` belongs to `story` (its partition range).
+#[inline]
+pub(crate) fn in_story(story: &Story, z: f32) -> bool {
+    (z as f64) >= story.z_min && (z as f64) < story.z_max
+}
+
+impl StoryBounds {
+    /// The bounds of the story's points among `xyz`, in parallel.
+    pub fn measure(xyz: &[[f32; 3]], story: &Story) -> StoryBounds {
+        xyz.par_iter()
+            .fold(StoryBounds::default, |b, p| b.add(p, story))
+            .reduce(StoryBounds::default, StoryBounds::merge)
+    }
+
+    /// The bounds of every story's points among `xyz`, and the height range of each block of
+    /// [`Blocks::SIZE`] points, in one parallel pass. `stories` must be in ascending order with
+    /// disjoint ranges, as [`crate::stories`] gives them.
+    pub fn measure_all(xyz: &[[f32; 3]], stories: &[Story]) -> (Vec<StoryBounds>, Blocks) {
+        let parts: Vec<(Vec<StoryBounds>, (f32, f32))> = xyz
+            .par_chunks(Blocks::SIZE)
+            .map(|block| {
+                let mut acc = vec![StoryBounds::default(); stories.len()];
+                let mut z = (f32::INFINITY, f32::NEG_INFINITY);
+                for p in block {
+                    if !p.iter().all(|c| c.is_finite()) {
+                        acc.iter_mut().for_each(|b| b.non_finite += 1);
+                        // Non-finite heights make the block's range cover everything.
+                        z = (f32::NEG_INFINITY, f32::INFINITY);
+                        continue;
+                    }
+                    z = (z.0.min(p[2]), z.1.max(p[2]));
+                    let k = stories.partition_point(|s| s.z_max <= p[2] as f64);
+                    if let (Some(b), Some(s)) = (acc.get_mut(k), stories.get(k)) {
+                        *b = b.add(p, s);
+                    }
+                }
+                (acc, z)
+            })
+            .collect();
+        let mut all = vec![StoryBounds::default(); stories.len()];
+        let mut z = Vec::with_capacity(parts.len());
+        for (acc, range) in parts {
+            all = all
+                .into_iter()
+                .zip(acc)
+                .map(|(a, b)| StoryBounds::merge(a, b))
+                .collect();
+            z.push(range);
+        }
+        (all, Blocks { z })
+    }
+
+    /// Adds one point: to the bounds when it belongs to the story, to `non_finite` when a
+    /// coordinate is not finite.
+    #[inline]
+    pub fn add(mut self, p: &[f32; 3], story: &Story) -> StoryBounds {
         if !p.iter().all(|c| c.is_finite()) {
             self.non_finite += 1;
-        } else if inside {
+        } else if in_story(story, p[2]) {
             self.lo = [self.lo[0].min(p[0]), self.lo[1].min(p[1])];
             self.hi = [self.hi[0].max(p[0]), self.hi[1].max(p[1])];
             self.n += 1;
@@ -184,29 +173,433 @@ impl Bounds {
         self
     }
 
-    fn merge(a: Bounds, b: Bounds) -> Bounds {
-        Bounds {
+    pub fn merge(a: StoryBounds, b: StoryBounds) -> StoryBounds {
+        StoryBounds {
             lo: [a.lo[0].min(b.lo[0]), a.lo[1].min(b.lo[1])],
             hi: [a.hi[0].max(b.hi[0]), a.hi[1].max(b.hi[1])],
             n: a.n + b.n,
             non_finite: a.non_finite + b.non_finite,
         }
     }
+
+    /// The story's grid of `cell`-metre cells over these bounds.
+    pub fn frame(&self, story: &Story, cell: f64) -> Result<GridFrame, SamplesError> {
+        if self.non_finite > 0 {
+            return Err(SamplesError::NonFinite(self.non_finite));
+        }
+        if self.n == 0 {
+            return Err(SamplesError::EmptyStory { level: story.level });
+        }
+        let origin = [self.lo[0] as f64, self.lo[1] as f64];
+        let span = [self.hi[0] as f64 - origin[0], self.hi[1] as f64 - origin[1]];
+        let nx = (span[0] / cell) as usize + 1;
+        let ny = (span[1] / cell) as usize + 1;
+        if nx.saturating_mul(ny) > MAX_CELLS {
+            return Err(SamplesError::TooLarge(format!(
+                "story {} spans {:.0} m × {:.0} m, {nx} × {ny} cells of {cell} m; are there outliers?",
+                story.level, span[0], span[1]
+            )));
+        }
+        Ok(GridFrame {
+            origin,
+            cell,
+            nx,
+            ny,
+        })
+    }
+}
+
+/// The height range of each block of [`Blocks::SIZE`] consecutive points, so that passes over
+/// one story skip the blocks holding none of its points (scans come station by station, and a
+/// station sees mostly one story).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Blocks {
+    z: Vec<(f32, f32)>,
+}
+
+impl Blocks {
+    pub const SIZE: usize = 1 << 16;
+
+    /// The index ranges of the points that may belong to `story`, in order.
+    pub fn spans(&self, story: &Story) -> Vec<Range<usize>> {
+        let mut out: Vec<Range<usize>> = Vec::new();
+        for (b, &(lo, hi)) in self.z.iter().enumerate() {
+            let (lo, hi) = (lo as f64, hi as f64);
+            if hi < story.z_min || lo >= story.z_max || lo.is_nan() {
+                continue;
+            }
+            let r = b * Self::SIZE..(b + 1) * Self::SIZE;
+            match out.last_mut() {
+                Some(last) if last.end == r.start => last.end = r.end,
+                _ => out.push(r),
+            }
+        }
+        out
+    }
+}
+
+/// What each point brings along into the grid besides its coordinates: whatever tells which
+/// scanner saw it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Carry {
+    Nothing,
+    Slots,
+    Times,
+}
+
+/// The points a grid is built from: coordinates, and the per-point arrays [`Carry`] may name.
+#[derive(Clone, Copy)]
+pub(super) struct Points<'a> {
+    pub xyz: &'a [[f32; 3]],
+    pub scan: &'a [u16],
+    pub time: &'a [f64],
+}
+
+/// A story's points in a range of its grid's cells, sorted by cell. Every held cell has its
+/// height summary; only the cells some neighbourhood will be gathered from keep their points.
+pub(super) struct Grid {
+    pub frame: GridFrame,
+    /// The cells held.
+    pub range: CellRange,
+    /// `pts[start[c]..start[c + 1]]` are the kept points of held cell `c` (row-major in
+    /// `range`); empty for cells whose points no neighbourhood needs.
+    pub start: Vec<u32>,
+    pub pts: Vec<[f32; 3]>,
+    /// Alongside `pts`: each point's height bin code, and when carried its scan slot or time.
+    pub bins: Vec<u8>,
+    pub slots: Vec<u16>,
+    pub times: Vec<f64>,
+    /// Per held cell: the count and heights of all its points.
+    pub summaries: Vec<Summary>,
+}
+
+/// The heights of one cell's own points: their number and range, and which height bins they
+/// fill. Summaries of cells merge into the summary of their union.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Summary {
+    pub n: u32,
+    pub zmin: f32,
+    pub zmax: f32,
+    pub mask: u32,
+}
+
+impl Default for Summary {
+    fn default() -> Self {
+        Summary {
+            n: 0,
+            zmin: f32::INFINITY,
+            zmax: f32::NEG_INFINITY,
+            mask: 0,
+        }
+    }
+}
+
+impl Summary {
+    #[inline]
+    pub fn merge(&mut self, o: &Summary) {
+        self.n += o.n;
+        self.zmin = self.zmin.min(o.zmin);
+        self.zmax = self.zmax.max(o.zmax);
+        self.mask |= o.mask;
+    }
+}
+
+/// A point's held-cell key in the counting pass's record: none.
+const NO_KEY: u32 = u32::MAX;
+
+impl Grid {
+    /// Sorts the points of `story` (those with `z_min <= z < z_max`) that fall in `range` of
+    /// `frame` by cell, and summarizes each cell's heights with `bin_code`, a height's bin
+    /// (see [`super::cell::Tests::bin_code`]). Only the points in `spans` (index ranges, in
+    /// order) are looked at; `None` is all. The points of a cell are kept only when it lies in
+    /// the 3 × 3 block of a cell of `core` whose block summary passes `candidate`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn build(
+        points: Points<'_>,
+        spans: Option<&[Range<usize>]>,
+        story: &Story,
+        frame: GridFrame,
+        core: &CellRange,
+        carry: Carry,
+        bin_code: impl Fn(f32) -> u8 + Sync,
+        candidate: impl Fn(&Summary) -> bool,
+    ) -> Result<Grid, SamplesError> {
+        let xyz = points.xyz;
+        let range = core.grown(&frame);
+        let whole = [0..xyz.len()];
+        let spans: Vec<Range<usize>> = spans
+            .unwrap_or(&whole)
+            .iter()
+            .map(|r| r.start.min(xyz.len())..r.end.min(xyz.len()))
+            .filter(|r| !r.is_empty())
+            .collect();
+        if xyz.len() >= u32::MAX as usize {
+            return Err(SamplesError::TooLarge(format!(
+                "{} points exceed the 2^32 a story can index",
+                xyz.len()
+            )));
+        }
+        let width = range.width();
+        // `cell_of`, with the frame's numbers hoisted out of the loop.
+        let (ox, oy, inv) = (frame.origin[0], frame.origin[1], 1.0 / frame.cell);
+        let (last_i, last_j) = (frame.nx - 1, frame.ny - 1);
+        let key = |p: &[f32; 3]| -> Option<usize> {
+            if !in_story(story, p[2]) {
+                return None;
+            }
+            // Through i64: the same values for these non-negative numbers, and a cheaper cast.
+            let i = ((((p[0] as f64 - ox) * inv) as i64) as usize).min(last_i);
+            let j = ((((p[1] as f64 - oy) * inv) as i64) as usize).min(last_j);
+            (range.i.contains(&i) && range.j.contains(&j))
+                .then(|| (j - range.j.start) * width + (i - range.i.start))
+        };
+        let cells = range.cells();
+
+        // The counting pass, one part of the spans per thread: every cell's summary, and each
+        // point's key, recorded so the scatter need not find it again.
+        let parts = rayon::current_num_threads().max(1);
+        let total: usize = spans.iter().map(|r| r.len()).sum();
+        let pieces = split_spans(&spans, total.div_ceil(parts).max(1));
+        let mut keys = vec![NO_KEY; total];
+        let mut key_parts = Vec::with_capacity(pieces.len());
+        {
+            let mut rest = &mut keys[..];
+            for piece in &pieces {
+                let len = piece.iter().map(|r| r.len()).sum();
+                let (k, r) = rest.split_at_mut(len);
+                key_parts.push(k);
+                rest = r;
+            }
+        }
+        let summaries = pieces
+            .par_iter()
+            .zip(key_parts)
+            .map(|(piece, keys)| {
+                let mut sums = vec![Summary::default(); cells];
+                let mut at = 0;
+                for r in piece {
+                    for p in &xyz[r.clone()] {
+                        if let Some(c) = key(p) {
+                            let s = &mut sums[c];
+                            s.n += 1;
+                            s.zmin = s.zmin.min(p[2]);
+                            s.zmax = s.zmax.max(p[2]);
+                            let b = bin_code(p[2]);
+                            if b != super::cell::NO_BIN {
+                                s.mask |= 1 << b;
+                            }
+                            keys[at] = c as u32;
+                        }
+                        at += 1;
+                    }
+                }
+                sums
+            })
+            .reduce(
+                || vec![Summary::default(); cells],
+                |mut a, b| {
+                    a.iter_mut().zip(&b).for_each(|(x, y)| x.merge(y));
+                    a
+                },
+            );
+
+        // Which cells' points a neighbourhood will read.
+        let mut needed = vec![false; cells];
+        let id = |i: usize, j: usize| (j - range.j.start) * width + (i - range.i.start);
+        for j in core.j.clone() {
+            for i in core.i.clone() {
+                let mut block = Summary::default();
+                let (xs, ys) = (
+                    i.saturating_sub(1).max(range.i.start)..(i + 2).min(range.i.end),
+                    j.saturating_sub(1).max(range.j.start)..(j + 2).min(range.j.end),
+                );
+                for b in ys.clone() {
+                    for a in xs.clone() {
+                        block.merge(&summaries[id(a, b)]);
+                    }
+                }
+                if block.n > 0 && candidate(&block) {
+                    for b in ys.clone() {
+                        for a in xs.clone() {
+                            needed[id(a, b)] = true;
+                        }
+                    }
+                }
+            }
+        }
+        let mut start = vec![0u32; cells + 1];
+        for c in 0..cells {
+            start[c + 1] = start[c] + if needed[c] { summaries[c].n } else { 0 };
+        }
+        let n = start[cells] as usize;
+        let mut pts = vec![[0f32; 3]; n];
+        let mut bins = vec![0u8; n];
+        let mut slots = vec![0u16; if carry == Carry::Slots { n } else { 0 }];
+        let mut times = vec![0f64; if carry == Carry::Times { n } else { 0 }];
+
+        // The scatter, in bands of rows, one per thread: each band owns a contiguous part of
+        // the output, passes over the recorded keys and keeps its own points, in cloud order.
+        let bands = band_rows(&start, width, range.j.len(), parts);
+        let mut outs = Vec::with_capacity(bands.len());
+        {
+            let (mut p_rest, mut b_rest, mut s_rest, mut t_rest) =
+                (&mut pts[..], &mut bins[..], &mut slots[..], &mut times[..]);
+            for rows in &bands {
+                let (c0, c1) = (rows.start * width, rows.end * width);
+                let len = (start[c1] - start[c0]) as usize;
+                let (p, pr) = p_rest.split_at_mut(len);
+                let (b, br) = b_rest.split_at_mut(len);
+                let (s, sr) = s_rest.split_at_mut(if s_rest.is_empty() { 0 } else { len });
+                let (t, tr) = t_rest.split_at_mut(if t_rest.is_empty() { 0 } else { len });
+                (p_rest, b_rest, s_rest, t_rest) = (pr, br, sr, tr);
+                outs.push((c0..c1, p, b, s, t));
+            }
+        }
+        let (keys, needed) = (&keys, &needed);
+        outs.into_par_iter().for_each(|(band, p, b, s, t)| {
+            let base = start[band.start];
+            let mut next: Vec<u32> = start[band.clone()].iter().map(|&v| v - base).collect();
+            let (c0, c1) = (band.start as u32, band.end as u32);
+            let mut at = 0;
+            for r in &spans {
+                for (k, q) in xyz[r.clone()].iter().enumerate() {
+                    let c = keys[at];
+                    at += 1;
+                    if c < c0 || c >= c1 || !needed[c as usize] {
+                        continue;
+                    }
+                    let slot = &mut next[(c - c0) as usize];
+                    let dst = *slot as usize;
+                    *slot += 1;
+                    p[dst] = *q;
+                    b[dst] = bin_code(q[2]);
+                    match carry {
+                        Carry::Slots => s[dst] = points.scan[r.start + k],
+                        Carry::Times => t[dst] = points.time[r.start + k],
+                        Carry::Nothing => {}
+                    }
+                }
+            }
+        });
+        Ok(Grid {
+            frame,
+            range,
+            start,
+            pts,
+            bins,
+            slots,
+            times,
+            summaries,
+        })
+    }
+
+    /// The index of held cell `(i, j)` (global indices).
+    #[inline]
+    pub fn id(&self, i: usize, j: usize) -> usize {
+        (j - self.range.j.start) * self.range.width() + (i - self.range.i.start)
+    }
+
+    /// Where the points of held cell `(i, j)` lie in `pts`.
+    #[inline]
+    pub fn points(&self, i: usize, j: usize) -> Range<usize> {
+        let c = self.id(i, j);
+        self.start[c] as usize..self.start[c + 1] as usize
+    }
+
+    /// The held cells of the 3 × 3 block around `(i, j)`.
+    pub fn block(&self, i: usize, j: usize) -> impl Iterator<Item = (usize, usize)> {
+        let r = &self.range;
+        let xs = i.saturating_sub(1).max(r.i.start)..(i + 2).min(r.i.end);
+        (j.saturating_sub(1).max(r.j.start)..(j + 2).min(r.j.end))
+            .flat_map(move |b| xs.clone().map(move |a| (a, b)))
+    }
+}
+
+/// Cuts `spans` into consecutive pieces of about `len` points each.
+fn split_spans(spans: &[Range<usize>], len: usize) -> Vec<Vec<Range<usize>>> {
+    let mut pieces = vec![Vec::new()];
+    let mut filled = 0;
+    for r in spans {
+        let mut r = r.clone();
+        while !r.is_empty() {
+            let take = (len - filled).min(r.len());
+            pieces
+                .last_mut()
+                .expect("a piece")
+                .push(r.start..r.start + take);
+            r.start += take;
+            filled += take;
+            if filled == len {
+                pieces.push(Vec::new());
+                filled = 0;
+            }
+        }
+    }
+    pieces
+}
+
+/// Splits `rows` rows of `width` cells into at most `parts` contiguous bands of about equal
+/// point counts (`start` holds the cells' prefix sums).
+fn band_rows(start: &[u32], width: usize, rows: usize, parts: usize) -> Vec<Range<usize>> {
+    let total = *start.last().unwrap_or(&0) as u64;
+    let mut bands = Vec::with_capacity(parts);
+    let mut from = 0;
+    for k in 1..parts {
+        let goal = total * k as u64 / parts as u64;
+        let mut to = from;
+        while to < rows && (start[(to + 1) * width] as u64) <= goal {
+            to += 1;
+        }
+        if to > from {
+            bands.push(from..to);
+            from = to;
+        }
+    }
+    if from < rows || bands.is_empty() {
+        bands.push(from..rows);
+    }
+    bands
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    #[test]
-    fn points_land_in_their_cells_and_out_of_story_points_are_left_out() {
-        let story = Story {
+    fn story() -> Story {
+        Story {
             level: 0,
             floor_z: 0.0,
             ceiling_z: 2.0,
             z_min: 0.0,
             z_max: 2.0,
+        }
+    }
+
+    fn grid(xyz: &[[f32; 3]], range: Option<CellRange>) -> Grid {
+        let s = story();
+        let frame = StoryBounds::measure(xyz, &s).frame(&s, 0.05).unwrap();
+        let range = range.unwrap_or_else(|| frame.all());
+        let scan: Vec<u16> = (0..xyz.len() as u16).collect();
+        let points = Points {
+            xyz,
+            scan: &scan,
+            time: &[],
         };
+        Grid::build(
+            points,
+            None,
+            &s,
+            frame,
+            &range,
+            Carry::Slots,
+            |z| (z > 0.75) as u8,
+            |_| true,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn points_land_in_their_cells_and_out_of_story_points_are_left_out() {
         let xyz = [
             [0.0, 0.0, 1.0],
             [0.12, 0.01, 1.0],
@@ -214,15 +607,59 @@ mod tests {
             [0.11, 0.02, 5.0], // above the story
             [0.04, 0.04, 0.5],
         ];
-        let g = Grid::build(&xyz, &story, 0.05, |z| Some((z > 0.75) as u32)).unwrap();
-        assert_eq!((g.nx, g.ny), (3, 2));
-        assert_eq!(g.points(0, 0), &[0, 4]);
-        assert_eq!(g.points(2, 0), &[1]);
-        assert_eq!(g.points(0, 1), &[2]);
-        assert_eq!(g.order.len(), 4);
+        let g = grid(&xyz, None);
+        assert_eq!((g.frame.nx, g.frame.ny), (3, 2));
+        let at = |i, j| g.points(i, j).map(|k| g.slots[k]).collect::<Vec<_>>();
+        assert_eq!(at(0, 0), vec![0, 4]);
+        assert_eq!(at(2, 0), vec![1]);
+        assert_eq!(at(0, 1), vec![2]);
+        assert_eq!(g.pts.len(), 4);
+        assert_eq!(g.pts[g.points(2, 0).start], [0.12, 0.01, 1.0]);
         assert_eq!(g.block(0, 0).count(), 4);
         assert_eq!(g.block(1, 0).count(), 6);
         let s = g.summaries[0];
         assert_eq!((s.zmin, s.zmax, s.mask), (0.5, 1.0, 0b11));
+        // A range holds only its cells, with the same contents.
+        let part = grid(&xyz, Some(CellRange { i: 2..3, j: 0..2 }));
+        assert_eq!(part.pts, vec![[0.12, 0.01, 1.0]]);
+        assert_eq!(part.points(2, 0), 0..1);
+        // The range holds its cells and a ring of neighbours around them.
+        assert_eq!(part.range, CellRange { i: 1..3, j: 0..2 });
+        assert_eq!(part.block(2, 0).count(), 4);
+    }
+
+    #[test]
+    fn blocks_skip_what_a_story_cannot_hold() {
+        let mut xyz = vec![[0.0f32, 0.0, 1.0]; Blocks::SIZE * 3];
+        for p in &mut xyz[Blocks::SIZE..2 * Blocks::SIZE] {
+            p[2] = 5.0;
+        }
+        let upper = Story {
+            level: 1,
+            floor_z: 4.0,
+            ceiling_z: 6.0,
+            z_min: 3.0,
+            z_max: 7.0,
+        };
+        let (bounds, blocks) = StoryBounds::measure_all(&xyz, &[story(), upper]);
+        assert_eq!(bounds[0].n, 2 * Blocks::SIZE);
+        assert_eq!(bounds[1].n, Blocks::SIZE);
+        assert_eq!(
+            blocks.spans(&story()),
+            vec![0..Blocks::SIZE, 2 * Blocks::SIZE..3 * Blocks::SIZE]
+        );
+        assert_eq!(blocks.spans(&upper), vec![Blocks::SIZE..2 * Blocks::SIZE]);
+        let pieces = split_spans(&[0..5, 10..12], 3);
+        assert_eq!(pieces, vec![vec![0..3], vec![3..5, 10..11], vec![11..12]]);
+    }
+
+    #[test]
+    fn bands_split_rows_by_points_and_cover_them_all() {
+        // Four rows of two cells, with 1, 1, 5 and 1 points.
+        let start = [0, 1, 1, 1, 1, 6, 6, 7, 7];
+        assert_eq!(band_rows(&start, 2, 4, 2), vec![0..2, 2..4]);
+        assert_eq!(band_rows(&start, 2, 4, 1), vec![0..4]);
+        let empty = [0u32; 9];
+        assert_eq!(band_rows(&empty, 2, 4, 3), vec![0..4]);
     }
 }

@@ -7,8 +7,10 @@
 //! order. With scanner poses, [`views`] orients the normals and drops far samples.
 
 mod cell;
-mod grid;
+pub(crate) mod grid;
 mod views;
+
+use std::ops::Range;
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -17,7 +19,8 @@ use crate::cloud::PointCloud;
 use crate::geom::P2;
 use crate::stories::Story;
 use cell::{Reject, Tests};
-use grid::{Grid, Summary};
+pub use grid::{Blocks, CellRange, GridFrame, StoryBounds};
+use grid::{Carry, Grid, Points, Summary};
 use views::Views;
 
 /// Parameters of [`sample_walls`].
@@ -119,26 +122,117 @@ pub fn sample_walls(
     params: &SamplesParams,
 ) -> Result<WallSamples, SamplesError> {
     check_params(params, story)?;
+    let frame = StoryBounds::measure(&cloud.xyz, story).frame(story, params.cell_size)?;
+    sample_walls_in(cloud, story, params, &frame, None)
+}
+
+/// [`sample_walls`] on a grid whose frame is already known (from bounds measured for several
+/// stories at once, say).
+/// Only the points in `spans` (index ranges, in order; `None` for all) are looked at: the
+/// story's points must all lie in them.
+pub fn sample_walls_in(
+    cloud: &PointCloud,
+    story: &Story,
+    params: &SamplesParams,
+    frame: &GridFrame,
+    spans: Option<&[Range<usize>]>,
+) -> Result<WallSamples, SamplesError> {
+    check_params(params, story)?;
+    let scan = scan_cells(cloud, spans, story, params, frame, frame.all())?;
+    finish_samples(cloud, story, params, vec![scan])
+}
+
+/// The wall-like cells of one range of a story's grid, with the rejections by reason: the part
+/// of sampling that reads points. Cells whose 3 × 3 block leaves `cloud` see only part of
+/// their neighbourhood, so callers pass ranges whose blocks `cloud` covers.
+pub(crate) struct CellScan {
+    /// Wall-like cells in row-major order, each with its id `j * nx + i` in the whole grid.
+    found: Vec<(u64, Found)>,
+    tally: [usize; 6],
+}
+
+/// Tests the cells of `core` (a range of `frame`'s cells) on the points of `cloud`.
+pub(crate) fn scan_cells(
+    cloud: &PointCloud,
+    spans: Option<&[Range<usize>]>,
+    story: &Story,
+    params: &SamplesParams,
+    frame: &GridFrame,
+    core: CellRange,
+) -> Result<CellScan, SamplesError> {
+    let mut out = CellScan {
+        found: Vec::new(),
+        tally: [0; 6],
+    };
+    if core.is_empty() {
+        return Ok(out);
+    }
     let tests = Tests::new(story, params);
-    let grid = Grid::build(&cloud.xyz, story, params.cell_size, |z| tests.bin_of(z))?;
     let views = Views::new(cloud, story);
-    let scan = Scan {
+    let points = Points {
         xyz: &cloud.xyz,
+        scan: &cloud.scan,
+        time: &cloud.time,
+    };
+    let carry = match views.carry() {
+        Carry::Times if cloud.time.is_empty() => Carry::Nothing,
+        c => c,
+    };
+    let min_points = params.min_points.unwrap_or(ADAPTIVE_RANGE.0);
+    let grid = Grid::build(
+        points,
+        spans,
+        story,
+        *frame,
+        &core,
+        carry,
+        |z| tests.bin_code(z),
+        |block| prefilter(&tests, block, min_points).is_ok(),
+    )?;
+    let scan = Scan {
         grid: &grid,
         tests: &tests,
         views: &views,
-        min_points: params.min_points.unwrap_or(ADAPTIVE_RANGE.0),
+        min_points,
+        core: &core,
     };
-    let rows: Vec<Row> = (0..grid.ny)
+    let rows: Vec<Row> = core
+        .j
+        .clone()
         .into_par_iter()
         .map_init(Scratch::default, |s, j| scan.row(j, s))
         .collect();
-    let mut tally = [0usize; 6];
-    let mut found = Vec::new();
     for row in rows {
-        tally.iter_mut().zip(row.tally).for_each(|(t, r)| *t += r);
-        found.extend(row.found);
+        out.tally
+            .iter_mut()
+            .zip(row.tally)
+            .for_each(|(t, r)| *t += r);
+        out.found.extend(row.found);
     }
+    Ok(out)
+}
+
+/// Turns the scans of every part of a story's grid into its samples: the adaptive threshold
+/// over all wall-like cells, then the range filter. `cloud` gives the viewpoints (its points
+/// are not read).
+pub(crate) fn finish_samples(
+    cloud: &PointCloud,
+    story: &Story,
+    params: &SamplesParams,
+    scans: Vec<CellScan>,
+) -> Result<WallSamples, SamplesError> {
+    let views = Views::new(cloud, story);
+    let mut tally = [0usize; 6];
+    let mut found = Vec::with_capacity(scans.iter().map(|s| s.found.len()).sum());
+    let several = scans.len() > 1;
+    for scan in scans {
+        tally.iter_mut().zip(scan.tally).for_each(|(t, r)| *t += r);
+        found.extend(scan.found);
+    }
+    if several {
+        found.sort_by_key(|f| f.0);
+    }
+    let found: Vec<Found> = found.into_iter().map(|f| f.1).collect();
     let min_points_used = params
         .min_points
         .unwrap_or_else(|| adaptive_min_points(&found));
@@ -182,7 +276,7 @@ impl SamplesParams {
     }
 }
 
-fn check_params(params: &SamplesParams, story: &Story) -> Result<(), SamplesError> {
+pub(crate) fn check_params(params: &SamplesParams, story: &Story) -> Result<(), SamplesError> {
     check_values(params)?;
     let bad = |name, why: String| Err(SamplesError::BadParam { name, why });
     let positive = |v: f64| v.is_finite() && v > 0.0;
@@ -289,25 +383,41 @@ struct Found {
 
 /// What one grid row yields: wall-like cells and the rejections by reason.
 struct Row {
-    found: Vec<Found>,
+    found: Vec<(u64, Found)>,
     tally: [usize; 6],
 }
 
-/// Per-thread buffers for a neighbourhood.
+/// The 3 × 3 block bounds the neighbourhood: a cell is ruled out cheaply when even its
+/// block's summary fails the count, vertical-support or filled-bins tests.
+fn prefilter(tests: &Tests, block: &Summary, min_points: usize) -> Result<(), Reject> {
+    if (block.n as usize) < min_points {
+        return Err(Reject::TooFew);
+    }
+    if ((block.zmax - block.zmin) as f64) < tests.min_wall_height() {
+        return Err(Reject::TooShort);
+    }
+    tests.histogram(block.mask, min_points)
+}
+
+/// Per-thread buffers for a neighbourhood: its points and their height bins, and what says
+/// who saw them.
 #[derive(Default)]
 struct Scratch {
     pts: Vec<[f32; 3]>,
-    idx: Vec<u32>,
+    bins: Vec<u8>,
+    slots: Vec<u16>,
+    times: Vec<f64>,
 }
 
 /// Everything a row scan reads.
 struct Scan<'a> {
-    xyz: &'a [[f32; 3]],
     grid: &'a Grid,
     tests: &'a Tests,
     views: &'a Views<'a>,
     /// The count threshold applied while scanning; the adaptive one is applied afterwards.
     min_points: usize,
+    /// The cells to test.
+    core: &'a CellRange,
 }
 
 impl Scan<'_> {
@@ -316,14 +426,15 @@ impl Scan<'_> {
             found: Vec::new(),
             tally: [0; 6],
         };
-        for i in 0..self.grid.nx {
+        let nx = self.grid.frame.nx as u64;
+        for i in self.core.i.clone() {
             match self.cell(i, j, s) {
                 Ok(None) => {}
                 Ok(Some(f)) => {
                     if let Some(r) = f.why {
                         row.tally[r as usize] += 1;
                     }
-                    row.found.push(f)
+                    row.found.push((j as u64 * nx + i as u64, f))
                 }
                 Err(r) => row.tally[r as usize] += 1,
             }
@@ -334,44 +445,36 @@ impl Scan<'_> {
     /// Tests cell `(i, j)`. `Ok(None)` for a cell with no points around it.
     fn cell(&self, i: usize, j: usize, s: &mut Scratch) -> Result<Option<Found>, Reject> {
         let g = self.grid;
-        // The 3 × 3 block bounds the neighbourhood: rule the cell out cheaply when even the
-        // block fails the count, vertical-support or filled-bins tests.
-        let mut n = 0;
         let mut block = Summary::default();
         for (a, b) in g.block(i, j) {
-            let c = b * g.nx + a;
-            n += (g.start[c + 1] - g.start[c]) as usize;
-            let m = &g.summaries[c];
-            block.zmin = block.zmin.min(m.zmin);
-            block.zmax = block.zmax.max(m.zmax);
-            block.mask |= m.mask;
+            block.merge(&g.summaries[g.id(a, b)]);
         }
-        if n == 0 {
+        if block.n == 0 {
             return Ok(None);
         }
-        if n < self.min_points {
-            return Err(Reject::TooFew);
-        }
-        if ((block.zmax - block.zmin) as f64) < self.tests.min_wall_height() {
-            return Err(Reject::TooShort);
-        }
-        self.tests.histogram(block.mask, self.min_points)?;
+        prefilter(self.tests, &block, self.min_points)?;
         self.gather(i, j, s);
-        let lo = g.corner(i, j);
+        let lo = g.frame.corner(i, j);
         let count = s.pts.len();
-        let wall = match self.tests.run(&mut s.pts, lo, g.cell, self.min_points) {
-            Ok(w) => w,
-            Err(r) if r.wall_like() => {
-                return Ok(Some(Found {
-                    count,
-                    sample: None,
-                    nearest: None,
-                    why: Some(r),
-                }))
-            }
-            Err(r) => return Err(r),
-        };
-        let seen = self.views.observe(&s.idx, wall.pos, wall.normal);
+        let wall =
+            match self
+                .tests
+                .run_binned(&mut s.pts, &s.bins, lo, g.frame.cell, self.min_points)
+            {
+                Ok(w) => w,
+                Err(r) if r.wall_like() => {
+                    return Ok(Some(Found {
+                        count,
+                        sample: None,
+                        nearest: None,
+                        why: Some(r),
+                    }))
+                }
+                Err(r) => return Err(r),
+            };
+        let seen = self
+            .views
+            .observe(&s.slots, &s.times, count, wall.pos, wall.normal);
         Ok(Some(Found {
             count,
             sample: Some(WallSample {
@@ -388,18 +491,27 @@ impl Scan<'_> {
     /// Collects the points within d_s of the centre of cell `(i, j)`.
     fn gather(&self, i: usize, j: usize, s: &mut Scratch) {
         let g = self.grid;
-        let lo = g.corner(i, j);
-        let (cx, cy) = (lo[0] + g.cell / 2.0, lo[1] + g.cell / 2.0);
-        let r2 = g.cell * g.cell;
+        let lo = g.frame.corner(i, j);
+        let cell = g.frame.cell;
+        let (cx, cy) = (lo[0] + cell / 2.0, lo[1] + cell / 2.0);
+        let r2 = cell * cell;
         s.pts.clear();
-        s.idx.clear();
+        s.bins.clear();
+        s.slots.clear();
+        s.times.clear();
         for (a, b) in g.block(i, j) {
-            for &k in g.points(a, b) {
-                let p = self.xyz[k as usize];
+            for k in g.points(a, b) {
+                let p = g.pts[k];
                 let (dx, dy) = (p[0] as f64 - cx, p[1] as f64 - cy);
                 if dx * dx + dy * dy <= r2 {
                     s.pts.push(p);
-                    s.idx.push(k);
+                    s.bins.push(g.bins[k]);
+                    if let Some(&slot) = g.slots.get(k) {
+                        s.slots.push(slot);
+                    }
+                    if let Some(&t) = g.times.get(k) {
+                        s.times.push(t);
+                    }
                 }
             }
         }

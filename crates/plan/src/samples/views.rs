@@ -6,6 +6,7 @@
 //! scanner on another floor never becomes a viewpoint of this one; when no pose lies in the
 //! range (heights unknown), all are listed.
 
+use super::grid::Carry;
 use crate::cloud::{PointCloud, TrajectorySample, Viewpoints};
 use crate::geom::{dist, dot, sub, P2};
 use crate::stories::Story;
@@ -39,7 +40,6 @@ enum Kind<'a> {
         listed: Vec<Option<u32>>,
     },
     Trajectory {
-        time: &'a [f64],
         traj: Vec<TrajectorySample>,
         /// Times of the listed viewpoints, ascending.
         listed_t: Vec<f64>,
@@ -100,11 +100,7 @@ impl<'a> Views<'a> {
                     .map(|s| [s.position[0], s.position[1]])
                     .collect();
                 let (viewpoints, listed_t) = list_along(&inside, TRAJECTORY_SPACING);
-                let kind = Kind::Trajectory {
-                    time: &cloud.time,
-                    traj,
-                    listed_t,
-                };
+                let kind = Kind::Trajectory { traj, listed_t };
                 Views {
                     kind,
                     viewpoints,
@@ -119,8 +115,18 @@ impl<'a> Views<'a> {
         }
     }
 
-    /// The viewer of point `i`: its position and listed viewpoint, when known.
-    fn viewer(&self, i: usize) -> Option<(P2, Option<u32>)> {
+    /// What the grid must carry per point for [`Self::observe`]: scan slots, times, or nothing.
+    pub fn carry(&self) -> Carry {
+        match &self.kind {
+            Kind::Static { scan, .. } if !scan.is_empty() => Carry::Slots,
+            Kind::Trajectory { .. } => Carry::Times,
+            _ => Carry::Nothing,
+        }
+    }
+
+    /// The viewer of the `k`-th point of a neighbourhood whose scan slots or times (as
+    /// [`Self::carry`] asks) are `slots` or `times`: its position and listed viewpoint.
+    fn viewer(&self, slots: &[u16], times: &[f64], k: usize) -> Option<(P2, Option<u32>)> {
         match &self.kind {
             Kind::None => None,
             Kind::Static {
@@ -129,62 +135,133 @@ impl<'a> Views<'a> {
                 listed,
             } => {
                 // A cloud without scan slots and a single pose was all seen from it.
-                let slot = match scan.get(i) {
+                let slot = match slots.get(k) {
                     Some(&s) => s as usize,
                     None if scan.is_empty() && poses.len() == 1 => 0,
                     None => return None,
                 };
                 Some((*poses.get(slot)?, *listed.get(slot)?))
             }
-            Kind::Trajectory {
-                time,
-                traj,
-                listed_t,
-            } => {
-                let t = *time.get(i)?;
+            Kind::Trajectory { traj, listed_t, .. } => {
+                let t = *times.get(k)?;
                 Some((position_at(traj, t)?, nearest_in_time(listed_t, t)))
             }
         }
     }
 
-    /// Orients `normal` by a majority of the points `idx` around the sample at `pos` (each point
+    /// Orients `normal` by a majority of the `n` points around the sample at `pos` (each point
     /// votes for the side its scanner stood on; a tie goes to the nearest scanner), and lists
-    /// the viewpoints that saw it.
-    pub fn observe(&self, idx: &[u32], pos: P2, normal: P2) -> Seen {
-        let mut votes = 0i64;
-        let mut nearest: Option<(f64, f64)> = None;
-        let mut seen_from = Vec::new();
-        for &i in idx {
-            let Some((v, id)) = self.viewer(i as usize) else {
-                continue;
-            };
-            let side = dot(normal, sub(v, pos));
-            votes += side.signum() as i64;
-            let d = dist(v, pos);
-            if nearest.is_none_or(|(best, _)| d < best) {
-                nearest = Some((d, side));
+    /// the viewpoints that saw it. `slots` or `times` say who saw each point (see
+    /// [`Self::carry`]).
+    pub fn observe(&self, slots: &[u16], times: &[f64], n: usize, pos: P2, normal: P2) -> Seen {
+        let mut tally = Tally::new(pos, normal);
+        match &self.kind {
+            Kind::Static { .. } => {
+                // The points of one scan share their viewer: count them per scan slot, in the
+                // order the slots first appear, and weigh each viewer once. Votes, the nearest
+                // viewer (the first at the least distance) and the list come out as if each
+                // point were weighed in turn.
+                let mut per_slot: Vec<(u16, usize)> = Vec::new();
+                for k in 0..n {
+                    let Some(slot) = self.slot(slots, k) else {
+                        continue;
+                    };
+                    match per_slot.iter_mut().find(|(s, _)| *s == slot) {
+                        Some((_, c)) => *c += 1,
+                        None => per_slot.push((slot, 1)),
+                    }
+                }
+                for (slot, count) in per_slot {
+                    if let Some((v, id)) = self.static_viewer(slot as usize) {
+                        tally.add(v, id, count);
+                    }
+                }
             }
-            if let Some(id) = id {
-                seen_from.push(id);
+            _ => {
+                for k in 0..n {
+                    if let Some((v, id)) = self.viewer(slots, times, k) {
+                        tally.add(v, id, 1);
+                    }
+                }
             }
         }
-        seen_from.sort_unstable();
-        seen_from.dedup();
-        if seen_from.len() > MAX_SEEN_FROM {
-            let n = seen_from.len();
-            seen_from = (0..MAX_SEEN_FROM)
-                .map(|k| seen_from[k * n / MAX_SEEN_FROM])
+        tally.seen(normal)
+    }
+
+    /// The scan slot of the `k`-th point, for static scans.
+    fn slot(&self, slots: &[u16], k: usize) -> Option<u16> {
+        let Kind::Static { scan, poses, .. } = &self.kind else {
+            return None;
+        };
+        match slots.get(k) {
+            Some(&s) => Some(s),
+            // A cloud without scan slots and a single pose was all seen from it.
+            None if scan.is_empty() && poses.len() == 1 => Some(0),
+            None => None,
+        }
+    }
+
+    fn static_viewer(&self, slot: usize) -> Option<(P2, Option<u32>)> {
+        let Kind::Static { poses, listed, .. } = &self.kind else {
+            return None;
+        };
+        Some((*poses.get(slot)?, *listed.get(slot)?))
+    }
+}
+
+/// The votes of the points around one sample, and the viewers that saw it.
+struct Tally {
+    pos: P2,
+    normal: P2,
+    votes: i64,
+    /// Distance and side of the nearest viewer.
+    nearest: Option<(f64, f64)>,
+    seen_from: Vec<u32>,
+}
+
+impl Tally {
+    fn new(pos: P2, normal: P2) -> Tally {
+        Tally {
+            pos,
+            normal,
+            votes: 0,
+            nearest: None,
+            seen_from: Vec::new(),
+        }
+    }
+
+    /// `count` points seen from viewer `v` (listed as `id`).
+    fn add(&mut self, v: P2, id: Option<u32>, count: usize) {
+        let side = dot(self.normal, sub(v, self.pos));
+        self.votes += side.signum() as i64 * count as i64;
+        let d = dist(v, self.pos);
+        if self.nearest.is_none_or(|(best, _)| d < best) {
+            self.nearest = Some((d, side));
+        }
+        if let Some(id) = id {
+            self.seen_from.push(id);
+        }
+    }
+
+    fn seen(mut self, normal: P2) -> Seen {
+        self.seen_from.sort_unstable();
+        self.seen_from.dedup();
+        if self.seen_from.len() > MAX_SEEN_FROM {
+            let n = self.seen_from.len();
+            self.seen_from = (0..MAX_SEEN_FROM)
+                .map(|k| self.seen_from[k * n / MAX_SEEN_FROM])
                 .collect();
         }
-        let flip = votes < 0 || (votes == 0 && nearest.is_some_and(|(_, side)| side < 0.0));
+        let votes = self.votes;
+        let flip = votes < 0 || (votes == 0 && self.nearest.is_some_and(|(_, side)| side < 0.0));
         Seen {
             normal: if flip {
                 [-normal[0], -normal[1]]
             } else {
                 normal
             },
-            seen_from,
-            nearest: nearest.map(|(d, _)| d),
+            seen_from: self.seen_from,
+            nearest: self.nearest.map(|(d, _)| d),
         }
     }
 }
@@ -299,7 +376,8 @@ mod tests {
         assert_eq!(views.viewpoints, vec![[0.0, -2.0]]);
         // Points 0 and 1 come from the listed scan, 2 and 3 from the upper one: a tie of
         // votes (the normal faces both), broken by the nearer scanner at y = -2.
-        let seen = views.observe(&[0, 1, 2, 3], [0.0, 0.0], [0.0, 1.0]);
+        assert_eq!(views.carry(), Carry::Slots);
+        let seen = views.observe(&cloud.scan, &[], 4, [0.0, 0.0], [0.0, 1.0]);
         assert_eq!(seen.normal, [0.0, -1.0]);
         assert_eq!(seen.seen_from, vec![0]);
         assert_eq!(seen.nearest, Some(2.0));
@@ -332,7 +410,8 @@ mod tests {
                 "{k}: {v:?}"
             );
         }
-        let seen = views.observe(&[0, 1], [0.25, 0.0], [0.0, 1.0]);
+        assert_eq!(views.carry(), Carry::Times);
+        let seen = views.observe(&[], &cloud.time, 2, [0.25, 0.0], [0.0, 1.0]);
         assert_eq!(seen.normal, [0.0, -1.0]);
         // t = 2.5 is where the scanner stood at x = 0.25; t = 9 at x = 0.9.
         assert_eq!(seen.seen_from, vec![25, 90]);
@@ -346,7 +425,8 @@ mod tests {
             ..Default::default()
         };
         let views = Views::new(&cloud, &story());
-        let seen = views.observe(&[0], [0.0, 0.0], [0.0, 1.0]);
+        assert_eq!(views.carry(), Carry::Nothing);
+        let seen = views.observe(&[], &[], 1, [0.0, 0.0], [0.0, 1.0]);
         assert_eq!(seen.normal, [0.0, 1.0]);
         assert!(seen.seen_from.is_empty() && seen.nearest.is_none());
     }

@@ -6,6 +6,7 @@
 //! is allocated, so a header claiming billions of vertices is an error, not an allocation.
 //! Points with a non-finite coordinate are skipped and counted in `SourceInfo::skipped`.
 
+mod chunks;
 mod header;
 mod write;
 
@@ -18,6 +19,7 @@ use super::ReadError;
 use crate::cloud::{local_origin, to_local, PointCloud, SourceInfo};
 use header::{check_counts, describe, layout, read_header, Element, Header, Kind, Layout, Scalar};
 
+pub use chunks::PlyChunks;
 pub use header::Encoding;
 pub use write::{write_ply, write_ply_to, WriteError};
 
@@ -118,13 +120,19 @@ impl Sink {
     }
 
     fn slot(&mut self, s: f64) -> Result<u16, String> {
-        if !(s >= 0.0 && s <= f64::from(u32::MAX) && s.fract() == 0.0) {
+        // In range, a whole number is one its integer cast gives back (cheaper than `fract`).
+        if !(s >= 0.0 && s <= f64::from(u32::MAX) && f64::from(s as u32) == s) {
             return Err(format!(
                 "scan index {s} is not a whole number from 0 to {}",
                 u32::MAX
             ));
         }
-        let id = s as u32;
+        self.slot_of_id(s as u32)
+    }
+
+    /// The slot of scan index `id`, assigned in order of first appearance.
+    #[inline]
+    fn slot_of_id(&mut self, id: u32) -> Result<u16, String> {
         if let Some((last_id, slot)) = self.last {
             if last_id == id {
                 return Ok(slot);
@@ -144,6 +152,37 @@ impl Sink {
         };
         self.last = Some((id, slot));
         Ok(slot)
+    }
+
+    /// [`Self::push`] for a batch of records of the commonest layout: little-endian `float`
+    /// x, y, z at `xyz` offsets and, when `scan` is given, a `uint` scan index there; no time.
+    /// Decoding straight into the arrays is several times faster than going through `f64`
+    /// values one by one. On error, returns the record's index in `buf` and why.
+    fn push_f32_records(
+        &mut self,
+        buf: &[u8],
+        size: usize,
+        xyz: [usize; 3],
+        scan: Option<usize>,
+    ) -> Result<(), (usize, String)> {
+        let f =
+            |rec: &[u8], o: usize| f32::from_le_bytes([rec[o], rec[o + 1], rec[o + 2], rec[o + 3]]);
+        for (i, rec) in buf.chunks_exact(size).enumerate() {
+            let (x, y, z) = (f(rec, xyz[0]), f(rec, xyz[1]), f(rec, xyz[2]));
+            if !(x.is_finite() && y.is_finite() && z.is_finite()) {
+                self.skipped += 1;
+                continue;
+            }
+            let p = [f64::from(x), f64::from(y), f64::from(z)];
+            let origin = *self.origin.get_or_insert_with(|| local_origin(Some(p)));
+            if let Some(o) = scan {
+                let id = u32::from_le_bytes([rec[o], rec[o + 1], rec[o + 2], rec[o + 3]]);
+                let slot = self.slot_of_id(id).map_err(|why| (i, why))?;
+                self.cloud.scan.push(slot);
+            }
+            self.cloud.xyz.push(to_local(origin, p));
+        }
+        Ok(())
     }
 
     fn finish(mut self, details: String) -> PointCloud {
@@ -348,6 +387,18 @@ impl<R: BufRead> Body<'_, R> {
             let start = self.offset;
             self.fill(&mut buf[..n * size], "the vertex data")
                 .map_err(|e| truncated_vertices(e, done, vertex.count))?;
+            if let Some(scan) = fast_layout([x, y, z], scan, time, big) {
+                sink.push_f32_records(&buf[..n * size], size, [x.0, y.0, z.0], scan)
+                    .map_err(|(i, why)| {
+                        invalid(
+                            self.path,
+                            format!("vertex {}: {why}", done + i as u64),
+                            Some(format!("byte offset {}", start + (i * size) as u64)),
+                        )
+                    })?;
+                done += n as u64;
+                continue;
+            }
             for (i, rec) in buf[..n * size].chunks_exact(size).enumerate() {
                 let get = |(o, s): (usize, Scalar)| s.decode(&rec[o..], big);
                 let p = [get(x), get(y), get(z)];
@@ -450,6 +501,24 @@ impl<R: BufRead> Body<'_, R> {
                 Some(format!("byte offset {start}")),
             )
         })
+    }
+}
+
+/// For the layout [`Sink::push_f32_records`] decodes (little-endian `float` x, y, z, an
+/// optional `uint` scan index, no time): `Some` with the scan index's offset, if any.
+#[allow(clippy::type_complexity)]
+fn fast_layout(
+    xyz: [(usize, Scalar); 3],
+    scan: Option<(usize, Scalar)>,
+    time: Option<(usize, Scalar)>,
+    big: bool,
+) -> Option<Option<usize>> {
+    let floats = !big && xyz.iter().all(|f| f.1 == Scalar::F32) && time.is_none();
+    match scan {
+        _ if !floats => None,
+        None => Some(None),
+        Some((o, Scalar::U32)) => Some(Some(o)),
+        Some(_) => None,
     }
 }
 
