@@ -45,8 +45,9 @@ fn max_memory_streams_to_the_same_plan() {
         "--out",
         &s(""),
     ]));
-    let common = ["--poses", &s("poses.json"), "--quiet"];
-    let mut args = vec!["plan", &s("cloud.ply")[..]];
+    let (poses, cloud) = (s("poses.json"), s("cloud.ply"));
+    let common = ["--poses", &poses, "--quiet"];
+    let mut args = vec!["plan", &cloud];
     args.extend(common);
     let whole = s("whole.geojson");
     let mut a = args.clone();
