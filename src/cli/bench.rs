@@ -523,8 +523,8 @@ fn plan_run(
 
 /// Least-squares slope of ln(time) over ln(points), per format, mode and thread count.
 fn exponents(runs: &[PlanRun]) -> Vec<Exponent> {
-    let mut groups: BTreeMap<(BenchFormat, String, Option<usize>), Vec<(f64, f64)>> =
-        BTreeMap::new();
+    type Group = (BenchFormat, String, Option<usize>);
+    let mut groups: BTreeMap<Group, Vec<(f64, f64)>> = BTreeMap::new();
     for r in runs {
         groups
             .entry((r.format, r.mode.clone(), r.threads))

@@ -160,7 +160,7 @@ pub fn plan_file(
     while chunks.next_chunk(&mut chunk)? {
         for (k, p) in chunk.xyz.iter().enumerate() {
             hist.add(p[2]);
-            if index % step == 0 {
+            if index.is_multiple_of(step) {
                 units.push(p[2]);
             }
             index += 1;
@@ -337,9 +337,9 @@ impl Survey {
     fn add(&mut self, chunk: &PointChunk) {
         self.n += chunk.len() as u64;
         for p in &chunk.xyz {
-            for k in 0..3 {
-                self.lo[k] = self.lo[k].min(p[k]);
-                self.hi[k] = self.hi[k].max(p[k]);
+            for ((lo, hi), &v) in self.lo.iter_mut().zip(&mut self.hi).zip(p) {
+                *lo = lo.min(v);
+                *hi = hi.max(v);
             }
             self.coarse.add(p[0], p[1]);
         }

@@ -326,7 +326,7 @@ impl Grid {
     ) -> Result<Grid, SamplesError> {
         let xyz = points.xyz;
         let range = core.grown(&frame);
-        let whole = [0..xyz.len()];
+        let whole = std::slice::from_ref(&(0..xyz.len())).to_vec();
         let spans: Vec<Range<usize>> = spans
             .unwrap_or(&whole)
             .iter()
