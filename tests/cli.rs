@@ -193,17 +193,16 @@ fn info_reports_the_cloud_or_names_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let input = small_cloud(dir.path());
     let out = asbuilt(&["info", input.to_str().unwrap()]);
-    if out.status.success() {
-        let text = String::from_utf8_lossy(&out.stdout);
-        assert!(text.contains("points: 4\n"), "{text}");
-        assert!(text.contains("format: ply"), "{text}");
-        assert!(text.contains("scans: 2"), "{text}");
-        assert!(text.contains("size: 2.000 x 3.000 x 2.500 m"), "{text}");
-    } else {
-        // Without a PLY reader in this build, the failure must still name the file.
-        let line = assert_one_line_failure(&out);
-        assert!(line.contains("small.ply"), "{line}");
-    }
+    assert!(out.status.success(), "{out:?}");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("points: 4\n"), "{text}");
+    assert!(text.contains("format: ply"), "{text}");
+    assert!(text.contains("scans: 2"), "{text}");
+    assert!(text.contains("size: 2.000 x 3.000 x 2.500 m"), "{text}");
+    // A missing file fails on one line that names it.
+    let missing = dir.path().join("missing.ply");
+    let line = assert_one_line_failure(&asbuilt(&["info", missing.to_str().unwrap()]));
+    assert!(line.contains("missing.ply"), "{line}");
 }
 
 /// A one-story room scanned in millimetres, as XYZ text with the scan index in column 3.

@@ -135,3 +135,46 @@ fn bad_options_fail_in_one_line() {
         assert!(err.contains(want), "{err:?} should mention {want:?}");
     }
 }
+
+#[test]
+fn the_readme_command_line_simulates_plans_and_reports_stage_times() {
+    let (_tmp, dir) = out_dir("readme");
+    let d = dir.to_str().unwrap();
+    let sim = asbuilt(&[
+        "simulate",
+        "--building",
+        "square_room",
+        "--points",
+        "150000",
+        "--out",
+        d,
+    ]);
+    assert!(sim.status.success(), "{sim:?}");
+    let (geojson, svg) = (dir.join("plan.geojson"), dir.join("plan.svg"));
+    let plan = asbuilt(&[
+        "plan",
+        dir.join("cloud.ply").to_str().unwrap(),
+        "--poses",
+        dir.join("poses.json").to_str().unwrap(),
+        "-o",
+        geojson.to_str().unwrap(),
+        "--svg",
+        svg.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&plan.stderr);
+    assert!(plan.status.success(), "{err}");
+    // The closing report: what was found, then every stage's time.
+    assert!(err.contains("150000 points (ply), 1 story"), "{err}");
+    assert!(err.contains("timings (ms):"), "{err}");
+    for stage in ["read", "stories", "samples", "label", "fit", "write", "total"] {
+        assert!(
+            err.lines().any(|l| l.trim_start().starts_with(stage)),
+            "no {stage} time in {err}"
+        );
+    }
+    let plan: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&geojson).unwrap()).unwrap();
+    assert_eq!(plan["floorplan"]["input"]["points"], 150000);
+    assert_eq!(plan["floorplan"]["input"]["scans"], 1);
+    assert!(std::fs::read_to_string(&svg).unwrap().starts_with("<svg"));
+}

@@ -177,7 +177,22 @@ struct Report {
     plan_runs: Vec<PlanRun>,
     /// Per format, mode and thread count: the slope of log(plan time) over log(points).
     exponents: Vec<Exponent>,
+    /// Per size, format and mode run at more than one thread count: each stage's speedup.
+    speedups: Vec<Speedup>,
     read_runs: Vec<ReadRun>,
+}
+
+/// How much faster each stage ran with `threads` threads than with `base_threads`.
+#[derive(Debug, Serialize)]
+struct Speedup {
+    points: u64,
+    format: BenchFormat,
+    mode: String,
+    base_threads: usize,
+    threads: usize,
+    /// Whole run (wall time), then stage name → base time / time; stages under 1 ms are left out.
+    plan: f64,
+    stages: BTreeMap<String, f64>,
 }
 
 #[derive(Debug, Serialize)]
@@ -302,6 +317,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
             .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
             .unwrap_or_default(),
         exponents: exponents(&plan_runs),
+        speedups: speedups(&plan_runs),
         plan_runs,
         read_runs,
     };
@@ -553,6 +569,43 @@ fn exponents(runs: &[PlanRun]) -> Vec<Exponent> {
         .collect()
 }
 
+/// For runs that differ only in thread count, each one's speedup over the fewest threads.
+fn speedups(runs: &[PlanRun]) -> Vec<Speedup> {
+    let mut out = Vec::new();
+    for base in runs {
+        let Some(t0) = base.threads else { continue };
+        let same = |r: &&PlanRun| {
+            r.points == base.points && r.format == base.format && r.mode == base.mode
+        };
+        let fewest = runs.iter().filter(same).filter_map(|r| r.threads).min();
+        if fewest != Some(t0) {
+            continue;
+        }
+        for r in runs.iter().filter(same) {
+            let Some(t) = r.threads.filter(|&t| t > t0) else {
+                continue;
+            };
+            let stages = STAGES
+                .iter()
+                .filter_map(|st| {
+                    let (a, b) = (*base.stages_ms.get(*st)?, *r.stages_ms.get(*st)?);
+                    (a >= 1 && b >= 1).then(|| (st.to_string(), a as f64 / b as f64))
+                })
+                .collect();
+            out.push(Speedup {
+                points: r.points,
+                format: r.format,
+                mode: r.mode.clone(),
+                base_threads: t0,
+                threads: t,
+                plan: base.plan_ms / r.plan_ms,
+                stages,
+            });
+        }
+    }
+    out
+}
+
 fn mb(bytes: u64) -> f64 {
     bytes as f64 / 1e6
 }
@@ -642,6 +695,35 @@ fn markdown(r: &Report) -> String {
         }
         s.push('\n');
     }
+    if !r.speedups.is_empty() {
+        let _ = writeln!(
+            s,
+            "| points | format | mode | threads | plan | {} |\n|{}",
+            STAGES.join(" | "),
+            "---|".repeat(5 + STAGES.len())
+        );
+        for x in &r.speedups {
+            let stages: Vec<String> = STAGES
+                .iter()
+                .map(|st| x.stages.get(*st).map_or("-".into(), |v| format!("{v:.2}×")))
+                .collect();
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} → {} | {:.2}× | {} |",
+                count(x.points),
+                x.format.name(),
+                x.mode,
+                x.base_threads,
+                x.threads,
+                x.plan,
+                stages.join(" | ")
+            );
+        }
+        let _ = writeln!(
+            s,
+            "\nspeedup: time with the fewer threads over time with the more (RAYON_NUM_THREADS).\n"
+        );
+    }
     if !r.read_runs.is_empty() {
         let _ = writeln!(
             s,
@@ -719,9 +801,8 @@ mod tests {
         assert_eq!(count(4_000_000), "4M");
     }
 
-    #[test]
-    fn exponent_of_linear_cost_is_one() {
-        let run = |points: u64, plan_ms: f64| PlanRun {
+    fn run(points: u64, plan_ms: f64) -> PlanRun {
+        PlanRun {
             points,
             format: BenchFormat::Ply,
             mode: "memory".into(),
@@ -737,7 +818,11 @@ mod tests {
             points_per_second: 0.0,
             peak_rss_bytes: 0,
             compact_bytes: 1,
-        };
+        }
+    }
+
+    #[test]
+    fn exponent_of_linear_cost_is_one() {
         let e = exponents(&[
             run(1_000_000, 100.0),
             run(4_000_000, 400.0),
@@ -746,5 +831,29 @@ mod tests {
         assert_eq!(e.len(), 1);
         assert!((e[0].exponent - 1.0).abs() < 1e-9, "{}", e[0].exponent);
         assert_eq!((e[0].from_points, e[0].to_points), (1_000_000, 70_000_000));
+    }
+
+    #[test]
+    fn speedups_compare_each_stage_with_the_fewest_threads() {
+        let with = |threads: usize, plan_ms: f64, samples: u64| {
+            let mut r = run(1_000_000, plan_ms);
+            r.threads = Some(threads);
+            r.stages_ms = BTreeMap::from([
+                ("samples".to_string(), samples),
+                ("label".to_string(), 50),
+                ("write".to_string(), 0),
+            ]);
+            r
+        };
+        let mut other_size = with(1, 10.0, 1);
+        other_size.points = 4_000_000;
+        let s = speedups(&[with(1, 1000.0, 600), with(2, 800.0, 300), other_size]);
+        assert_eq!(s.len(), 1, "{s:?}");
+        assert_eq!((s[0].base_threads, s[0].threads), (1, 2));
+        assert!((s[0].plan - 1.25).abs() < 1e-12);
+        assert!((s[0].stages["samples"] - 2.0).abs() < 1e-12);
+        assert!((s[0].stages["label"] - 1.0).abs() < 1e-12);
+        // A stage that took no measurable time has no ratio.
+        assert!(!s[0].stages.contains_key("write"));
     }
 }

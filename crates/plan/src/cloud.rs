@@ -126,16 +126,17 @@ impl PointCloud {
                 self.xyz.len()
             ));
         }
-        // Both scans over the points run on every core: they touch the whole cloud.
+        // Both scans over the points run on every core, in blocks: rayon's per-item `find` and
+        // `any` pay for a shared stop flag on every point.
+        let slots = self.scan_ids.len();
         if let Some(bad) = self
             .scan
-            .par_iter()
-            .find_first(|&&s| s as usize >= self.scan_ids.len())
+            .par_chunks(CHECK_BLOCK)
+            .filter_map(|b| b.iter().copied().max())
+            .max()
+            .filter(|&s| s as usize >= slots)
         {
-            return Err(format!(
-                "scan slot {bad} but only {} scans",
-                self.scan_ids.len()
-            ));
+            return Err(format!("scan slot {bad} but only {slots} scans"));
         }
         if let Viewpoints::Static(poses) = &self.viewpoints {
             if poses.len() != self.scan_ids.len() {
@@ -148,14 +149,17 @@ impl PointCloud {
         }
         if self
             .xyz
-            .par_iter()
-            .any(|p| !p.iter().all(|c| c.is_finite()))
+            .par_chunks(CHECK_BLOCK)
+            .any(|b| !b.iter().all(|p| p.iter().all(|c| c.is_finite())))
         {
             return Err("non-finite coordinate".into());
         }
         Ok(())
     }
 }
+
+/// Points per parallel block of [`PointCloud::check`].
+const CHECK_BLOCK: usize = 1 << 16;
 
 /// Picks a local origin near `first`, rounded to whole kilometres so nearby clouds share it.
 pub fn local_origin(first: Option<[f64; 3]>) -> [f64; 3] {
