@@ -166,7 +166,9 @@ fn the_readme_command_line_simulates_plans_and_reports_stage_times() {
     // The closing report: what was found, then every stage's time.
     assert!(err.contains("150000 points (ply), 1 story"), "{err}");
     assert!(err.contains("timings (ms):"), "{err}");
-    for stage in ["read", "stories", "samples", "label", "fit", "write", "total"] {
+    for stage in [
+        "read", "stories", "samples", "label", "fit", "write", "total",
+    ] {
         assert!(
             err.lines().any(|l| l.trim_start().starts_with(stage)),
             "no {stage} time in {err}"

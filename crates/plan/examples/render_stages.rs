@@ -1,7 +1,9 @@
 //! Draws one story's stages as SVG, for looking at what the labeling did.
 //!
 //! Run with `cargo run --release -p asbuilt-plan --example render_stages -- BUILDING POINTS SEED
-//! LEVEL OUT_DIR [--no-poses] [--mobile] [--view X0,Y0,X1,Y1]`. It writes `labels.svg` (after labeling), `cleaned.svg` (after
+//! LEVEL OUT_DIR [--no-poses] [--mobile] [--view X0,Y0,X1,Y1]`, or on a scan file with
+//! `-- --input FILE [--poses FILE] LEVEL OUT_DIR [--no-poses] [--view ...]` (no truth drawn; the
+//! view is in the cloud's local frame). It writes `labels.svg` (after labeling), `cleaned.svg` (after
 //! cleanup) and `fitted.svg` (the final polygons over the cleaned labels, truth in red).
 //! Triangles: inside light blue, outside white, forced inside dark blue, forced outside grey.
 
@@ -10,6 +12,7 @@ use asbuilt_plan::cleanup::clean_labels;
 use asbuilt_plan::cloud::Viewpoints;
 use asbuilt_plan::fitting::fit_walls;
 use asbuilt_plan::geom::P2;
+use asbuilt_plan::io::{self, poses};
 use asbuilt_plan::labeling::{label, LabeledMesh};
 use asbuilt_plan::samples::sample_walls;
 use asbuilt_plan::simulate::{simulate, BuildingKind, ScanOptions};
@@ -18,39 +21,57 @@ use asbuilt_plan::stories::split_stories;
 use asbuilt_plan::Params;
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let kind = BuildingKind::from_name(&args[0]).expect("a building name");
-    let options = ScanOptions {
-        points: args[1].parse().unwrap(),
-        seed: args[2].parse().unwrap(),
-        mobile: args.iter().any(|a| a == "--mobile"),
-        ..Default::default()
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let (mut cloud, truth_stories) = match args.iter().position(|a| a == "--input") {
+        Some(i) => {
+            let path = std::path::PathBuf::from(args.remove(i + 1));
+            args.remove(i);
+            let mut cloud = io::read_cloud(&path).unwrap();
+            if let Some(j) = args.iter().position(|a| a == "--poses") {
+                poses::load_poses(&mut cloud, std::path::Path::new(&args.remove(j + 1))).unwrap();
+                args.remove(j);
+            }
+            (cloud, None)
+        }
+        None => {
+            let kind = BuildingKind::from_name(&args[0]).expect("a building name");
+            let options = ScanOptions {
+                points: args[1].parse().unwrap(),
+                seed: args[2].parse().unwrap(),
+                mobile: args.iter().any(|a| a == "--mobile"),
+                ..Default::default()
+            };
+            let sim = simulate(kind, &options).unwrap();
+            args.drain(..3);
+            (sim.cloud, Some(sim.truth.stories))
+        }
     };
-    let level: usize = args[3].parse().unwrap();
-    let out = std::path::PathBuf::from(&args[4]);
+    let level: usize = args[0].parse().unwrap();
+    let out = std::path::PathBuf::from(&args[1]);
     std::fs::create_dir_all(&out).unwrap();
-    let mut sim = simulate(kind, &options).unwrap();
     if args.iter().any(|a| a == "--no-poses") {
-        sim.cloud.viewpoints = Viewpoints::None;
-        sim.cloud.scan.clear();
-        sim.cloud.scan_ids.clear();
+        cloud.viewpoints = Viewpoints::None;
+        cloud.scan.clear();
+        cloud.scan_ids.clear();
     }
     let params = Params::default();
     let view: Option<[f64; 4]> = args.iter().position(|a| a == "--view").map(|i| {
         let v: Vec<f64> = args[i + 1].split(',').map(|x| x.parse().unwrap()).collect();
         [v[0], v[1], v[2], v[3]]
     });
-    let z: Vec<f32> = sim.cloud.xyz.iter().map(|p| p[2]).collect();
+    let z: Vec<f32> = cloud.xyz.iter().map(|p| p[2]).collect();
     let stories = split_stories(&z, &params.stories).unwrap();
     let story = &stories[level];
-    let mut samples = sample_walls(&sim.cloud, story, &params.samples).unwrap();
+    let mut samples = sample_walls(&cloud, story, &params.samples).unwrap();
     smooth_samples(&mut samples, params.samples.cell_size, &params.smoothing).unwrap();
     let mut labeled = label(&samples, &params.labeling).unwrap();
-    let truth: Vec<Vec<P2>> = sim.truth.stories[level]
-        .polygons
-        .iter()
-        .flat_map(|p| std::iter::once(p.exterior.clone()).chain(p.holes.clone()))
-        .collect();
+    let truth: Vec<Vec<P2>> = truth_stories.map_or(Vec::new(), |t| {
+        t[level]
+            .polygons
+            .iter()
+            .flat_map(|p| std::iter::once(p.exterior.clone()).chain(p.holes.clone()))
+            .collect()
+    });
     let poses = samples.viewpoints.clone();
     std::fs::write(
         out.join("labels.svg"),
