@@ -122,6 +122,21 @@ impl Circle {
         (p[1] - self.center[1]).atan2(p[0] - self.center[0])
     }
 
+    /// How far the arc covering `points` (the circle less the widest angular gap between them)
+    /// bows away from its chord: R (1 − cos(θ / 2)) for a covered angle θ. Over half a turn it
+    /// is the radius or more.
+    pub fn sagitta(&self, points: &[P2]) -> f64 {
+        let mut angles: Vec<f64> = points.iter().map(|&p| self.angle(p)).collect();
+        if angles.len() < 2 {
+            return 0.0;
+        }
+        angles.sort_by(f64::total_cmp);
+        let wrap = angles[0] + std::f64::consts::TAU - angles[angles.len() - 1];
+        let gap = angles.windows(2).map(|w| w[1] - w[0]).fold(wrap, f64::max);
+        let covered = std::f64::consts::TAU - gap;
+        self.radius * (1.0 - (covered / 2.0).cos())
+    }
+
     /// The point at angle `a`.
     pub fn at(&self, a: f64) -> P2 {
         [
@@ -233,5 +248,31 @@ mod tests {
                 dir: [1.0, 0.0]
             })
             .is_empty());
+    }
+
+    #[test]
+    fn sagitta_is_the_bow_of_the_covered_arc() {
+        let c = Circle {
+            center: [0.0, 0.0],
+            radius: 20.0,
+        };
+        // 1.2 m of a 20 m circle, straddling angle 0: bows 9 mm.
+        let half = 0.6 / 20.0;
+        let pts: Vec<P2> = (0..=10)
+            .map(|k| c.at(-half + 2.0 * half * f64::from(k) / 10.0))
+            .collect();
+        let expect = 20.0 * (1.0 - half.cos());
+        assert!((c.sagitta(&pts) - expect).abs() < 1e-12);
+        assert!((expect - 0.009).abs() < 1e-4);
+        // Three quarters of a turn: the widest gap is the missing quarter.
+        let d = Circle {
+            center: [1.0, 2.0],
+            radius: 0.5,
+        };
+        let pts: Vec<P2> = (0..=30)
+            .map(|k| d.at(std::f64::consts::PI * 1.5 * f64::from(k) / 30.0))
+            .collect();
+        let expect = 0.5 * (1.0 - (std::f64::consts::PI * 0.75).cos());
+        assert!((d.sagitta(&pts) - expect).abs() < 1e-9);
     }
 }
