@@ -103,6 +103,33 @@ fn msac_cost(
     (cost, count)
 }
 
+/// `ids` split into the runs they form along the boundary (connected through boundary edges
+/// between members).
+fn boundary_runs(samples: &BoundarySamples, ids: &[usize]) -> Vec<Vec<usize>> {
+    let mut member = vec![false; samples.pos.len()];
+    ids.iter().for_each(|&i| member[i] = true);
+    let mut runs = Vec::new();
+    for &start in ids {
+        if !member[start] {
+            continue;
+        }
+        member[start] = false;
+        let (mut run, mut stack) = (vec![start], vec![start]);
+        while let Some(v) = stack.pop() {
+            for &w in &samples.adj[v] {
+                let w = w as usize;
+                if member[w] {
+                    member[w] = false;
+                    run.push(w);
+                    stack.push(w);
+                }
+            }
+        }
+        runs.push(run);
+    }
+    runs
+}
+
 /// Samples reachable from `start` within `hops` boundary edges, `start` excluded.
 fn neighbourhood(samples: &BoundarySamples, start: usize, hops: usize) -> Vec<usize> {
     let mut seen = vec![start];
@@ -248,7 +275,12 @@ fn refine(
     }
     if let Model::Circle(c) = model {
         let pts: Vec<_> = inliers.iter().map(|&i| samples.pos[i]).collect();
-        let flat = c.sagitta(&pts) < params.min_arc_sagitta;
+        // Judged run by run along the boundary: two short straight pieces far apart can lie on
+        // one wide circle whose arc between them bows a lot.
+        let flat = boundary_runs(samples, &inliers).iter().all(|run| {
+            let run: Vec<_> = run.iter().map(|&i| samples.pos[i]).collect();
+            c.sagitta(&run) < params.min_arc_sagitta
+        });
         if let Some(l) = Line::fit(&pts).map(Model::Line) {
             let l_side = self::side(samples, &l, &inliers);
             let as_line = inliers_of(samples, pool, &l, t, min_cos, l_side);
