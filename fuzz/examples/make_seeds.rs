@@ -6,6 +6,9 @@ use std::path::{Path, PathBuf};
 use asbuilt_plan::cloud::{PointCloud, ScanPose, TrajectorySample, Viewpoints};
 use asbuilt_plan::io::{export, ply, poses};
 
+#[path = "../../crates/plan/tests/support/e57_layouts.rs"]
+mod e57_layouts;
+
 fn out(target: &str, name: &str) -> PathBuf {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("corpus")
@@ -73,78 +76,7 @@ fn ply_seeds(c: &PointCloud) {
 
 fn e57_seeds(c: &PointCloud) {
     export::write_e57(&out("e57", "cartesian.e57"), c).unwrap();
-    // Spherical coordinates with an invalid-state field, intensity and colour, single precision.
-    let path = out("e57", "spherical.e57");
-    let mut w = e57::E57Writer::from_file(&path, "seed").unwrap();
-    let prototype = vec![
-        e57::Record::SPHERICAL_RANGE_F32,
-        e57::Record::SPHERICAL_AZIMUTH_F32,
-        e57::Record::SPHERICAL_ELEVATION_F32,
-        e57::Record::SPHERICAL_INVALID_STATE,
-        e57::Record::INTENSITY_U16,
-        e57::Record::COLOR_RED_U8,
-        e57::Record::COLOR_GREEN_U8,
-        e57::Record::COLOR_BLUE_U8,
-    ];
-    let mut pc = w.add_pointcloud("sph", prototype).unwrap();
-    for i in 0..8 {
-        let f = i as f32;
-        use e57::RecordValue::*;
-        pc.add_point(vec![
-            Single(1.0 + f),
-            Single(f * 0.3),
-            Single(f * 0.1 - 0.3),
-            Integer(i64::from(i == 5)),
-            Integer(i64::from(i) * 100),
-            Integer(200),
-            Integer(100),
-            Integer(i64::from(i)),
-        ])
-        .unwrap();
-    }
-    pc.finalize().unwrap();
-    // A second scan with scaled-integer cartesian coordinates and a pose.
-    let scaled = |name| e57::Record {
-        name,
-        data_type: e57::RecordDataType::ScaledInteger {
-            min: -100_000,
-            max: 100_000,
-            scale: 0.001,
-            offset: 0.0,
-        },
-    };
-    let prototype = vec![
-        scaled(e57::RecordName::CartesianX),
-        scaled(e57::RecordName::CartesianY),
-        scaled(e57::RecordName::CartesianZ),
-        e57::Record::CARTESIAN_INVALID_STATE,
-    ];
-    let mut pc = w.add_pointcloud("scaled", prototype).unwrap();
-    pc.set_transform(Some(e57::Transform {
-        rotation: e57::Quaternion {
-            w: 0.0,
-            x: 0.0,
-            y: 0.0,
-            z: 1.0,
-        },
-        translation: e57::Translation {
-            x: 10.0,
-            y: 20.0,
-            z: 1.5,
-        },
-    }));
-    for i in 0..8i64 {
-        use e57::RecordValue::*;
-        pc.add_point(vec![
-            ScaledInteger(i * 1000),
-            ScaledInteger(-i * 500),
-            ScaledInteger(1200),
-            Integer(i64::from(i == 3) * 2),
-        ])
-        .unwrap();
-    }
-    pc.finalize().unwrap();
-    w.finalize().unwrap();
+    e57_layouts::write_layouts(&out("e57", "spherical.e57"));
 }
 
 fn las_seeds(c: &PointCloud) {
