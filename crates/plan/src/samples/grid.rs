@@ -304,9 +304,8 @@ impl Summary {
     }
 }
 
-/// Cells per band of [`Grid::build`]: a band's summaries (16 bytes a cell) and scatter cursors
-/// fit in a core's L2 cache.
-const BAND_CELLS: usize = 16_384;
+/// A point's held-cell key in the counting pass's record: none.
+const NO_KEY: u32 = u32::MAX;
 
 impl Grid {
     /// Sorts the points of `story` (those with `z_min <= z < z_max`) that fall in `range` of
@@ -356,86 +355,53 @@ impl Grid {
         };
         let cells = range.cells();
 
-        // Bands of whole rows small enough that a band's per-cell arrays stay in cache: points
-        // come in scan order, and updating cells all over the grid missed the cache per point.
-        let rows = range.j.len();
-        let band_len = (BAND_CELLS / width).max(1);
-        let bands = rows.div_ceil(band_len);
-        let band_of = |c: usize| c / width / band_len;
-        let band_cells = |b: usize| b * band_len * width..((b + 1) * band_len).min(rows) * width;
-
-        // The partition: each band's point indices, in cloud order. Every thread takes a part
-        // of the spans, counts its points per band, then writes them where the counts put them
-        // (band by band, and within a band part by part).
+        // The counting pass, one part of the spans per thread: every cell's summary, and each
+        // point's key, recorded so the scatter need not find it again.
         let parts = rayon::current_num_threads().max(1);
         let total: usize = spans.iter().map(|r| r.len()).sum();
         let pieces = split_spans(&spans, total.div_ceil(parts).max(1));
-        let counts: Vec<Vec<usize>> = pieces
+        let mut keys = vec![NO_KEY; total];
+        let mut key_parts = Vec::with_capacity(pieces.len());
+        {
+            let mut rest = &mut keys[..];
+            for piece in &pieces {
+                let len = piece.iter().map(|r| r.len()).sum();
+                let (k, r) = rest.split_at_mut(len);
+                key_parts.push(k);
+                rest = r;
+            }
+        }
+        let summaries = pieces
             .par_iter()
-            .map(|piece| {
-                let mut n = vec![0usize; bands];
+            .zip(key_parts)
+            .map(|(piece, keys)| {
+                let mut sums = vec![Summary::default(); cells];
+                let mut at = 0;
                 for r in piece {
                     for p in &xyz[r.clone()] {
                         if let Some(c) = key(p) {
-                            n[band_of(c)] += 1;
+                            let s = &mut sums[c];
+                            s.n += 1;
+                            s.zmin = s.zmin.min(p[2]);
+                            s.zmax = s.zmax.max(p[2]);
+                            let b = bin_code(p[2]);
+                            if b != super::cell::NO_BIN {
+                                s.mask |= 1 << b;
+                            }
+                            keys[at] = c as u32;
                         }
-                    }
-                }
-                n
-            })
-            .collect();
-        let mut band_start = vec![0usize; bands + 1];
-        for b in 0..bands {
-            band_start[b + 1] = band_start[b] + counts.iter().map(|n| n[b]).sum::<usize>();
-        }
-        let mut order = vec![0u32; band_start[bands]];
-        let mut outs: Vec<Vec<&mut [u32]>> = pieces.iter().map(|_| Vec::new()).collect();
-        {
-            let mut rest = &mut order[..];
-            for b in 0..bands {
-                for (k, n) in counts.iter().enumerate() {
-                    let (part, r) = rest.split_at_mut(n[b]);
-                    outs[k].push(part);
-                    rest = r;
-                }
-            }
-        }
-        pieces.par_iter().zip(outs).for_each(|(piece, mut out)| {
-            let mut at = vec![0usize; bands];
-            for r in piece {
-                for (k, p) in xyz[r.clone()].iter().enumerate() {
-                    if let Some(c) = key(p) {
-                        let b = band_of(c);
-                        out[b][at[b]] = (r.start + k) as u32;
-                        at[b] += 1;
-                    }
-                }
-            }
-        });
-        let members = |b: usize| &order[band_start[b]..band_start[b + 1]];
-
-        // Every cell's summary, band by band.
-        let summaries: Vec<Summary> = (0..bands)
-            .into_par_iter()
-            .map(|b| {
-                let c0 = band_cells(b).start;
-                let mut sums = vec![Summary::default(); band_cells(b).len()];
-                for &k in members(b) {
-                    let p = &xyz[k as usize];
-                    let c = key(p).expect("partitioned points have a cell");
-                    let s = &mut sums[c - c0];
-                    s.n += 1;
-                    s.zmin = s.zmin.min(p[2]);
-                    s.zmax = s.zmax.max(p[2]);
-                    let b = bin_code(p[2]);
-                    if b != super::cell::NO_BIN {
-                        s.mask |= 1 << b;
+                        at += 1;
                     }
                 }
                 sums
             })
-            .collect::<Vec<_>>()
-            .concat();
+            .reduce(
+                || vec![Summary::default(); cells],
+                |mut a, b| {
+                    a.iter_mut().zip(&b).for_each(|(x, y)| x.merge(y));
+                    a
+                },
+            );
 
         // Which cells' points a neighbourhood will read.
         let mut needed = vec![false; cells];
@@ -471,44 +437,47 @@ impl Grid {
         let mut slots = vec![0u16; if carry == Carry::Slots { n } else { 0 }];
         let mut times = vec![0f64; if carry == Carry::Times { n } else { 0 }];
 
-        // The scatter, band by band: each band owns a contiguous part of the output and keeps
-        // its points in cloud order.
-        let mut parts_out = Vec::with_capacity(bands);
+        // The scatter, in bands of rows, one per thread: each band owns a contiguous part of
+        // the output, passes over the recorded keys and keeps its own points, in cloud order.
+        let bands = band_rows(&start, width, range.j.len(), parts);
+        let mut outs = Vec::with_capacity(bands.len());
         {
             let (mut p_rest, mut b_rest, mut s_rest, mut t_rest) =
                 (&mut pts[..], &mut bins[..], &mut slots[..], &mut times[..]);
-            for b in 0..bands {
-                let cs = band_cells(b);
-                let len = (start[cs.end] - start[cs.start]) as usize;
+            for rows in &bands {
+                let (c0, c1) = (rows.start * width, rows.end * width);
+                let len = (start[c1] - start[c0]) as usize;
                 let (p, pr) = p_rest.split_at_mut(len);
-                let (q, br) = b_rest.split_at_mut(len);
+                let (b, br) = b_rest.split_at_mut(len);
                 let (s, sr) = s_rest.split_at_mut(if s_rest.is_empty() { 0 } else { len });
                 let (t, tr) = t_rest.split_at_mut(if t_rest.is_empty() { 0 } else { len });
                 (p_rest, b_rest, s_rest, t_rest) = (pr, br, sr, tr);
-                parts_out.push((b, p, q, s, t));
+                outs.push((c0..c1, p, b, s, t));
             }
         }
-        let needed = &needed;
-        parts_out.into_par_iter().for_each(|(band, p, q, s, t)| {
-            let cs = band_cells(band);
-            let base = start[cs.start];
-            let mut next: Vec<u32> = start[cs.clone()].iter().map(|&v| v - base).collect();
-            for &k in members(band) {
-                let k = k as usize;
-                let pt = &xyz[k];
-                let c = key(pt).expect("partitioned points have a cell");
-                if !needed[c] {
-                    continue;
-                }
-                let slot = &mut next[c - cs.start];
-                let dst = *slot as usize;
-                *slot += 1;
-                p[dst] = *pt;
-                q[dst] = bin_code(pt[2]);
-                match carry {
-                    Carry::Slots => s[dst] = points.scan[k],
-                    Carry::Times => t[dst] = points.time[k],
-                    Carry::Nothing => {}
+        let (keys, needed) = (&keys, &needed);
+        outs.into_par_iter().for_each(|(band, p, b, s, t)| {
+            let base = start[band.start];
+            let mut next: Vec<u32> = start[band.clone()].iter().map(|&v| v - base).collect();
+            let (c0, c1) = (band.start as u32, band.end as u32);
+            let mut at = 0;
+            for r in &spans {
+                for (k, q) in xyz[r.clone()].iter().enumerate() {
+                    let c = keys[at];
+                    at += 1;
+                    if c < c0 || c >= c1 || !needed[c as usize] {
+                        continue;
+                    }
+                    let slot = &mut next[(c - c0) as usize];
+                    let dst = *slot as usize;
+                    *slot += 1;
+                    p[dst] = *q;
+                    b[dst] = bin_code(q[2]);
+                    match carry {
+                        Carry::Slots => s[dst] = points.scan[r.start + k],
+                        Carry::Times => t[dst] = points.time[r.start + k],
+                        Carry::Nothing => {}
+                    }
                 }
             }
         });
@@ -567,6 +536,29 @@ fn split_spans(spans: &[Range<usize>], len: usize) -> Vec<Vec<Range<usize>>> {
         }
     }
     pieces
+}
+
+/// Splits `rows` rows of `width` cells into at most `parts` contiguous bands of about equal
+/// point counts (`start` holds the cells' prefix sums).
+fn band_rows(start: &[u32], width: usize, rows: usize, parts: usize) -> Vec<Range<usize>> {
+    let total = *start.last().unwrap_or(&0) as u64;
+    let mut bands = Vec::with_capacity(parts);
+    let mut from = 0;
+    for k in 1..parts {
+        let goal = total * k as u64 / parts as u64;
+        let mut to = from;
+        while to < rows && (start[(to + 1) * width] as u64) <= goal {
+            to += 1;
+        }
+        if to > from {
+            bands.push(from..to);
+            from = to;
+        }
+    }
+    if from < rows || bands.is_empty() {
+        bands.push(from..rows);
+    }
+    bands
 }
 
 #[cfg(test)]
@@ -662,57 +654,12 @@ mod tests {
     }
 
     #[test]
-    fn many_bands_keep_every_cell_whole_and_in_cloud_order() {
-        // A strip 0.1 m wide and 1200 m long: two or three cells a row, 24,000 rows, several bands.
-        let n = 40_000;
-        let xyz: Vec<[f32; 3]> = (0..n)
-            .map(|k| {
-                let t = (k * 7919 % n) as f32 / n as f32;
-                [
-                    0.1 * ((k * 31 % 97) as f32 / 97.0),
-                    1200.0 * t,
-                    0.1 + 1.8 * ((k % 13) as f32 / 13.0),
-                ]
-            })
-            .collect();
-        let s = story();
-        let frame = StoryBounds::measure(&xyz, &s).frame(&s, 0.05).unwrap();
-        assert!(frame.nx * frame.ny > 2 * BAND_CELLS, "{frame:?}");
-        let scan: Vec<u16> = (0..n).map(|k| (k % 65_000) as u16).collect();
-        let points = Points {
-            xyz: &xyz,
-            scan: &scan,
-            time: &[],
-        };
-        let g = Grid::build(
-            points,
-            None,
-            &s,
-            frame,
-            &frame.all(),
-            Carry::Slots,
-            |z| (z > 1.0) as u8,
-            |_| true,
-        )
-        .unwrap();
-        // The naive answer: each cell's points in cloud order.
-        let mut cells: Vec<Vec<usize>> = vec![Vec::new(); frame.nx * frame.ny];
-        for (k, p) in xyz.iter().enumerate() {
-            let (i, j) = frame.cell_of(p);
-            cells[j * frame.nx + i].push(k);
-        }
-        assert_eq!(g.pts.len(), n);
-        for j in 0..frame.ny {
-            for i in 0..frame.nx {
-                let want = &cells[j * frame.nx + i];
-                let got: Vec<usize> = g.points(i, j).map(|k| g.slots[k] as usize).collect();
-                assert_eq!(&got, want, "cell ({i}, {j})");
-                let s = g.summaries[g.id(i, j)];
-                assert_eq!(s.n as usize, want.len());
-                if let Some(&k) = want.first() {
-                    assert!(s.zmin <= xyz[k][2] && xyz[k][2] <= s.zmax);
-                }
-            }
-        }
+    fn bands_split_rows_by_points_and_cover_them_all() {
+        // Four rows of two cells, with 1, 1, 5 and 1 points.
+        let start = [0, 1, 1, 1, 1, 6, 6, 7, 7];
+        assert_eq!(band_rows(&start, 2, 4, 2), vec![0..2, 2..4]);
+        assert_eq!(band_rows(&start, 2, 4, 1), vec![0..4]);
+        let empty = [0u32; 9];
+        assert_eq!(band_rows(&empty, 2, 4, 3), vec![0..4]);
     }
 }
