@@ -6,9 +6,7 @@ use std::fs::File;
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
-use super::header::{
-    check_counts, describe, layout, read_header, Element, Header, Kind, Layout, Scalar,
-};
+use super::header::{describe, read_header, vertices, Element, Header, Kind, Layout, Scalar};
 use super::{fast_layout, invalid, io_error, truncated_vertices, Body, Encoding, Sink, FORMAT};
 use crate::cloud::{PointCloud, SourceInfo};
 use crate::io::chunks::{hand_over, PointChunk, PointChunks, CHUNK_POINTS};
@@ -39,15 +37,8 @@ impl PlyChunks {
         let file_len = file.metadata().map_err(|e| io_error(path, e))?.len();
         let mut reader = BufReader::with_capacity(1 << 20, file);
         let header = read_header(&mut reader, path)?;
-        let (vertex_pos, vertex) = header
-            .elements
-            .iter()
-            .enumerate()
-            .find(|(_, e)| e.name == "vertex")
-            .ok_or_else(|| invalid(path, "the header declares no `vertex` element", None))?;
+        let (vertex_pos, vertex, layout) = vertices(&header, file_len, path)?;
         let vertex = vertex.clone();
-        let layout = layout(&vertex, path)?;
-        check_counts(&header, vertex_pos, file_len, path)?;
         let (offset, line) = {
             let mut body = Body {
                 path,

@@ -365,6 +365,24 @@ pub(super) fn read_header(reader: &mut impl BufRead, path: &Path) -> Result<Head
     })
 }
 
+/// The `vertex` element, its index among the header's elements and its layout, once the
+/// counts are known to fit in a file of `file_len` bytes.
+pub(super) fn vertices<'h>(
+    header: &'h Header,
+    file_len: u64,
+    path: &Path,
+) -> Result<(usize, &'h Element, Layout), ReadError> {
+    let (vertex_pos, vertex) = header
+        .elements
+        .iter()
+        .enumerate()
+        .find(|(_, e)| e.name == "vertex")
+        .ok_or_else(|| invalid(path, "the header declares no `vertex` element", None))?;
+    let layout = layout(vertex, path)?;
+    check_counts(header, vertex_pos, file_len, path)?;
+    Ok((vertex_pos, vertex, layout))
+}
+
 /// Finds x, y, z and the optional scan and time properties of the vertex element.
 pub(super) fn layout(vertex: &Element, path: &Path) -> Result<Layout, ReadError> {
     let find = |name: &str| {

@@ -17,7 +17,7 @@ use std::path::Path;
 
 use super::ReadError;
 use crate::cloud::{local_origin, to_local, PointCloud, SourceInfo};
-use header::{check_counts, describe, layout, read_header, Element, Header, Kind, Layout, Scalar};
+use header::{describe, read_header, vertices, Element, Header, Kind, Layout, Scalar};
 
 pub use chunks::PlyChunks;
 pub use header::Encoding;
@@ -47,14 +47,7 @@ pub fn read_ply_from<R: Read>(source: R, len: u64, name: &str) -> Result<PointCl
     let file_len = len;
     let mut reader = BufReader::with_capacity(1 << 20, source);
     let header = read_header(&mut reader, path)?;
-    let (vertex_pos, vertex) = header
-        .elements
-        .iter()
-        .enumerate()
-        .find(|(_, e)| e.name == "vertex")
-        .ok_or_else(|| invalid(path, "the header declares no `vertex` element", None))?;
-    let layout = layout(vertex, path)?;
-    check_counts(&header, vertex_pos, file_len, path)?;
+    let (vertex_pos, vertex, layout) = vertices(&header, file_len, path)?;
 
     let mut sink = Sink::new(vertex.count, layout);
     let mut body = Body {
