@@ -45,6 +45,7 @@ try {
     jobs: document.querySelectorAll("#jobs li").length,
     current: document.querySelectorAll("#jobs li.current").length,
     legend: document.querySelectorAll(".legend span").length,
+    arcLegend: !document.getElementById("arclegend").hidden,
     cancelHidden: document.getElementById("cancel").hidden,
   }));
   await page.screenshot({ path: shot, fullPage: true });
@@ -58,6 +59,7 @@ try {
   console.log(JSON.stringify({ ...seen, external, errors }));
   if (seen.status !== "succeeded") await fail("status is " + seen.status);
   if (seen.walls < 1 || seen.areas < 1) await fail("no plan drawn");
+  if (seen.arcLegend !== seen.arcs > 0) await fail("arc legend shown: " + seen.arcLegend + ", arcs: " + seen.arcs);
   if (seen.downloads !== 3) await fail("downloads not enabled");
   if (seen.current !== 1) await fail("the shown job is not marked in the list");
   if (!seen.cancelHidden) await fail("cancel still offered for a finished job");
