@@ -519,26 +519,30 @@ fn las_points_outside_stale_header_bounds_are_kept_and_told() {
     );
 }
 
+/// Writes LAS 1.4 point format 6 (compressed or not): `n` points along x, `dx` apart, each
+/// with its GPS time.
+fn las14_points(path: &Path, compressed: bool, n: u32, dx: f64) {
+    let mut b = las::Builder::from((1, 4));
+    b.point_format = las::point::Format::new(6).unwrap();
+    b.point_format.is_compressed = compressed;
+    let mut w = las::Writer::from_path(path, b.into_header().unwrap()).unwrap();
+    for i in 0..n {
+        w.write_point(las::Point {
+            x: f64::from(i) * dx,
+            y: 1.0,
+            z: 2.0,
+            gps_time: Some(f64::from(i)),
+            return_number: 1,
+            number_of_returns: 1,
+            ..Default::default()
+        })
+        .unwrap();
+    }
+    w.close().unwrap();
+}
+
 fn las14() -> Vec<u8> {
-    written("small14.las", |p| {
-        let mut b = las::Builder::from((1, 4));
-        b.point_format = las::point::Format::new(6).unwrap();
-        let header = b.into_header().unwrap();
-        let mut w = las::Writer::from_path(p, header).unwrap();
-        for i in 0..20 {
-            w.write_point(las::Point {
-                x: f64::from(i),
-                y: 1.0,
-                z: 2.0,
-                gps_time: Some(f64::from(i)),
-                return_number: 1,
-                number_of_returns: 1,
-                ..Default::default()
-            })
-            .unwrap();
-        }
-        w.close().unwrap();
-    })
+    written("small14.las", |p| las14_points(p, false, 20, 1.0))
 }
 
 #[test]
@@ -654,25 +658,7 @@ fn laz_flag_without_laszip_data() {
 
 /// LAS 1.4 point format 6, compressed: the layered LAZ of terrestrial scanners.
 fn layered_laz() -> Vec<u8> {
-    written("layered.laz", |p| {
-        let mut b = las::Builder::from((1, 4));
-        b.point_format = las::point::Format::new(6).unwrap();
-        b.point_format.is_compressed = true;
-        let mut w = las::Writer::from_path(p, b.into_header().unwrap()).unwrap();
-        for i in 0..1000 {
-            w.write_point(las::Point {
-                x: f64::from(i) * 0.01,
-                y: 1.0,
-                z: 2.0,
-                gps_time: Some(f64::from(i)),
-                return_number: 1,
-                number_of_returns: 1,
-                ..Default::default()
-            })
-            .unwrap();
-        }
-        w.close().unwrap();
-    })
+    written("layered.laz", |p| las14_points(p, true, 1000, 0.01))
 }
 
 #[test]
