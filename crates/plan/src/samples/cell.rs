@@ -72,11 +72,16 @@ pub(super) struct Tests {
     min_top: usize,
     min_confidence: f64,
     density_aware: bool,
+    /// [`Self::required`] for `n` below its length; the last entry holds for every larger `n`.
+    required: Vec<(u32, u32)>,
 }
+
+/// The most points [`Tests::required`] tabulates; past it the requirements are computed.
+const REQUIRED_TABLE: usize = 1 << 12;
 
 impl Tests {
     pub fn new(story: &Story, params: &SamplesParams) -> Tests {
-        Tests {
+        let mut tests = Tests {
             floor: story.floor_z,
             ceiling: story.ceiling_z,
             min_wall_height: params.min_wall_height,
@@ -85,7 +90,20 @@ impl Tests {
             min_top: params.min_top_bins,
             min_confidence: params.min_confidence,
             density_aware: params.density_aware_histogram,
+            required: Vec::new(),
+        };
+        // The requirements grow with n (the fill probability does) up to their value for
+        // very many points, so the table stops once it is reached. Every cell asks, and the
+        // binomial tail costs a microsecond.
+        let limit = tests.compute_required(usize::MAX);
+        for n in 0..REQUIRED_TABLE {
+            let r = tests.compute_required(n);
+            tests.required.push(r);
+            if r == limit {
+                break;
+            }
         }
+        tests
     }
 
     pub fn min_wall_height(&self) -> f64 {
@@ -115,6 +133,17 @@ impl Tests {
     /// at least one interior top bin is always required, so the wall reaches the ceiling.
     /// Returns (interior bins, interior top bins) in that mode, the paper's values otherwise.
     pub fn required(&self, n: usize) -> (u32, u32) {
+        match self.required.get(n) {
+            Some(&r) => r,
+            None if self.required.len() < REQUIRED_TABLE => {
+                *self.required.last().expect("the table holds n = 0")
+            }
+            None => self.compute_required(n),
+        }
+    }
+
+    /// [`Self::required`], from the binomial tail.
+    fn compute_required(&self, n: usize) -> (u32, u32) {
         if !self.density_aware {
             return (self.min_filled as u32, self.min_top as u32);
         }
@@ -310,6 +339,10 @@ mod tests {
     use super::*;
 
     fn tests() -> Tests {
+        tests_with(SamplesParams::default())
+    }
+
+    fn tests_with(params: SamplesParams) -> Tests {
         let story = Story {
             level: 0,
             floor_z: 0.0,
@@ -317,7 +350,7 @@ mod tests {
             z_min: -0.5,
             z_max: 3.5,
         };
-        Tests::new(&story, &SamplesParams::default())
+        Tests::new(&story, &params)
     }
 
     /// A wall along x at y = `y`, `nz` rows of `nx` points from `z0` to `z1`.
@@ -435,6 +468,15 @@ mod tests {
     }
 
     #[test]
+    fn the_requirements_table_agrees_with_the_binomial_tail() {
+        let t = tests();
+        assert!(t.required.len() > 13 && t.required.len() < REQUIRED_TABLE);
+        for n in (0..3 * REQUIRED_TABLE).chain([1 << 20, usize::MAX]) {
+            assert_eq!(t.required(n), t.compute_required(n), "n = {n}");
+        }
+    }
+
+    #[test]
     fn sparse_walls_need_fewer_bins_when_density_aware() {
         let t = tests();
         // Dense: the paper's 12 of 16 and 3 of the top 4, less the floor and ceiling bins.
@@ -451,10 +493,10 @@ mod tests {
         assert_eq!(t.required(13).1, 1);
         assert_eq!(likely_filled(4, 1.0, 3), 3);
         assert_eq!(likely_filled(4, 0.0, 3), 0);
-        let paper = Tests {
-            density_aware: false,
-            ..t.clone()
-        };
+        let paper = tests_with(SamplesParams {
+            density_aware_histogram: false,
+            ..SamplesParams::default()
+        });
         assert_eq!(paper.required(20), (12, 3));
         // A table edge: floor, table sides and top up to 0.75 m, and the ceiling. The floor
         // and ceiling bins do not count as wall, and nothing reaches the top interior bins.
