@@ -354,6 +354,7 @@ impl Grid {
                 .then(|| (j - range.j.start) * width + (i - range.i.start))
         };
         let cells = range.cells();
+        let t0 = std::time::Instant::now();
 
         // The counting pass, one part of the spans per thread: every cell's summary, and each
         // point's key, recorded so the scatter need not find it again.
@@ -403,6 +404,7 @@ impl Grid {
                 },
             );
 
+        let t1 = std::time::Instant::now();
         // Which cells' points a neighbourhood will read.
         let mut needed = vec![false; cells];
         let id = |i: usize, j: usize| (j - range.j.start) * width + (i - range.i.start);
@@ -432,6 +434,7 @@ impl Grid {
             start[c + 1] = start[c] + if needed[c] { summaries[c].n } else { 0 };
         }
         let n = start[cells] as usize;
+        let t2 = std::time::Instant::now();
         let mut pts = vec![[0f32; 3]; n];
         let mut bins = vec![0u8; n];
         let mut slots = vec![0u16; if carry == Carry::Slots { n } else { 0 }];
@@ -481,6 +484,9 @@ impl Grid {
                 }
             }
         });
+        if std::env::var_os("TRACE_SAMPLES").is_some() {
+            eprintln!("TRACE count {:?} needed {:?} scatter {:?} total {}", t1 - t0, t2 - t1, t2.elapsed(), total);
+        }
         Ok(Grid {
             frame,
             range,
@@ -500,10 +506,20 @@ impl Grid {
     }
 
     /// Where the points of held cell `(i, j)` lie in `pts`.
-    #[inline]
+    #[cfg(test)]
     pub fn points(&self, i: usize, j: usize) -> Range<usize> {
         let c = self.id(i, j);
         self.start[c] as usize..self.start[c + 1] as usize
+    }
+
+    /// Where the points of the 3 × 3 block around `(i, j)` lie in `pts`: one run per row,
+    /// the rows in order (a row's cells are consecutive).
+    pub fn block_runs(&self, i: usize, j: usize) -> impl Iterator<Item = Range<usize>> + '_ {
+        let r = &self.range;
+        let (a0, a1) = (i.saturating_sub(1).max(r.i.start), (i + 2).min(r.i.end));
+        (j.saturating_sub(1).max(r.j.start)..(j + 2).min(r.j.end)).map(move |b| {
+            self.start[self.id(a0, b)] as usize..self.start[self.id(a1 - 1, b) + 1] as usize
+        })
     }
 
     /// The held cells of the 3 × 3 block around `(i, j)`.
@@ -617,6 +633,12 @@ mod tests {
         assert_eq!(g.pts[g.points(2, 0).start], [0.12, 0.01, 1.0]);
         assert_eq!(g.block(0, 0).count(), 4);
         assert_eq!(g.block(1, 0).count(), 6);
+        // The block's runs hold its cells' points, row by row.
+        for (i, j) in [(0, 0), (1, 0), (2, 1)] {
+            let runs: Vec<usize> = g.block_runs(i, j).flatten().collect();
+            let cells: Vec<usize> = g.block(i, j).flat_map(|(a, b)| g.points(a, b)).collect();
+            assert_eq!(runs, cells);
+        }
         let s = g.summaries[0];
         assert_eq!((s.zmin, s.zmax, s.mask), (0.5, 1.0, 0b11));
         // A range holds only its cells, with the same contents.

@@ -179,6 +179,7 @@ pub(crate) fn scan_cells(
         c => c,
     };
     let min_points = params.min_points.unwrap_or(ADAPTIVE_RANGE.0);
+    let t0 = std::time::Instant::now();
     let grid = Grid::build(
         points,
         spans,
@@ -196,12 +197,16 @@ pub(crate) fn scan_cells(
         min_points,
         core: &core,
     };
+    let t1 = std::time::Instant::now();
     let rows: Vec<Row> = core
         .j
         .clone()
         .into_par_iter()
         .map_init(Scratch::default, |s, j| scan.row(j, s))
         .collect();
+    if std::env::var_os("TRACE_SAMPLES").is_some() {
+        eprintln!("TRACE build {:?} rows {:?} pts {} cells {}", t1 - t0, t1.elapsed(), grid.pts.len(), grid.summaries.len());
+    }
     for row in rows {
         out.tally
             .iter_mut()
@@ -399,10 +404,11 @@ fn prefilter(tests: &Tests, block: &Summary, min_points: usize) -> Result<(), Re
     tests.histogram(block.mask, min_points)
 }
 
-/// Per-thread buffers for a neighbourhood: its points and their height bins, and what says
-/// who saw them.
+/// Per-thread buffers for a neighbourhood: its points' places in the grid, the points and
+/// their height bins, and what says who saw them.
 #[derive(Default)]
 struct Scratch {
+    idx: Vec<u32>,
     pts: Vec<[f32; 3]>,
     bins: Vec<u8>,
     slots: Vec<u16>,
@@ -488,32 +494,38 @@ impl Scan<'_> {
         }))
     }
 
-    /// Collects the points within d_s of the centre of cell `(i, j)`.
+    /// Collects the points within d_s of the centre of cell `(i, j)`, in grid order.
     fn gather(&self, i: usize, j: usize, s: &mut Scratch) {
         let g = self.grid;
         let lo = g.frame.corner(i, j);
         let cell = g.frame.cell;
         let (cx, cy) = (lo[0] + cell / 2.0, lo[1] + cell / 2.0);
         let r2 = cell * cell;
-        s.pts.clear();
-        s.bins.clear();
-        s.slots.clear();
-        s.times.clear();
-        for (a, b) in g.block(i, j) {
-            for k in g.points(a, b) {
+        // About a third of the block's points lie outside the circle, in no pattern: the test
+        // decides where the next index goes rather than whether to branch.
+        s.idx.clear();
+        for run in g.block_runs(i, j) {
+            let mut at = s.idx.len();
+            s.idx.resize(at + run.len(), 0);
+            for k in run {
                 let p = g.pts[k];
                 let (dx, dy) = (p[0] as f64 - cx, p[1] as f64 - cy);
-                if dx * dx + dy * dy <= r2 {
-                    s.pts.push(p);
-                    s.bins.push(g.bins[k]);
-                    if let Some(&slot) = g.slots.get(k) {
-                        s.slots.push(slot);
-                    }
-                    if let Some(&t) = g.times.get(k) {
-                        s.times.push(t);
-                    }
-                }
+                s.idx[at] = k as u32;
+                at += usize::from(dx * dx + dy * dy <= r2);
             }
+            s.idx.truncate(at);
+        }
+        s.pts.clear();
+        s.pts.extend(s.idx.iter().map(|&k| g.pts[k as usize]));
+        s.bins.clear();
+        s.bins.extend(s.idx.iter().map(|&k| g.bins[k as usize]));
+        s.slots.clear();
+        if !g.slots.is_empty() {
+            s.slots.extend(s.idx.iter().map(|&k| g.slots[k as usize]));
+        }
+        s.times.clear();
+        if !g.times.is_empty() {
+            s.times.extend(s.idx.iter().map(|&k| g.times[k as usize]));
         }
     }
 }
