@@ -15,8 +15,14 @@ use super::SamplesError;
 use crate::stories::Story;
 
 /// The most cells a story's grid may have (about 200 m × 200 m at 5 cm). Beyond it the cloud
-/// holds far outliers, and the per-cell arrays would waste memory.
-pub(crate) const MAX_CELLS: usize = 1 << 24;
+/// holds far outliers, and the per-cell arrays would waste memory. A cell's index fits in the
+/// low [`CELL_BITS`] of a point's key.
+pub(crate) const MAX_CELLS: usize = (1 << CELL_BITS) - 1;
+
+/// A point's key in the counting pass holds its held cell in these low bits and its height
+/// bin code in the byte above.
+const CELL_BITS: u32 = 24;
+const CELL_MASK: u32 = (1 << CELL_BITS) - 1;
 
 /// Where a story's grid lies: cell `(i, j)` spans `origin + [i, i + 1) × cell` in x and the
 /// same in y, for `i < nx`, `j < ny`.
@@ -304,7 +310,8 @@ impl Summary {
     }
 }
 
-/// A point's held-cell key in the counting pass's record: none.
+/// The key of a point outside the story or the held cells. No held cell has it: the cells
+/// number at most [`MAX_CELLS`].
 const NO_KEY: u32 = u32::MAX;
 
 impl Grid {
@@ -379,19 +386,21 @@ impl Grid {
                 let mut sums = vec![Summary::default(); cells];
                 let mut at = 0;
                 for r in piece {
-                    for p in &xyz[r.clone()] {
-                        if let Some(c) = key(p) {
-                            let s = &mut sums[c];
-                            s.n += 1;
-                            s.zmin = s.zmin.min(p[2]);
-                            s.zmax = s.zmax.max(p[2]);
-                            let b = bin_code(p[2]);
-                            if b != super::cell::NO_BIN {
-                                s.mask |= 1 << b;
-                            }
-                            keys[at] = c as u32;
+                    let pts = &xyz[r.clone()];
+                    let keys = &mut keys[at..at + pts.len()];
+                    at += pts.len();
+                    for (slot, p) in keys.iter_mut().zip(pts) {
+                        let Some(c) = key(p) else { continue };
+                        let s = &mut sums[c];
+                        s.n += 1;
+                        s.zmin = s.zmin.min(p[2]);
+                        s.zmax = s.zmax.max(p[2]);
+                        let b = bin_code(p[2]);
+                        if b != super::cell::NO_BIN {
+                            s.mask |= 1 << b;
                         }
-                        at += 1;
+                        // The bin rides along for the scatter.
+                        *slot = c as u32 | u32::from(b) << CELL_BITS;
                     }
                 }
                 sums
@@ -466,16 +475,17 @@ impl Grid {
             let mut at = 0;
             for r in &spans {
                 for (k, q) in xyz[r.clone()].iter().enumerate() {
-                    let c = keys[at];
+                    let key = keys[at];
                     at += 1;
-                    if c < c0 || c >= c1 || !needed[c as usize] {
+                    let c = key & CELL_MASK;
+                    if key == NO_KEY || c < c0 || c >= c1 || !needed[c as usize] {
                         continue;
                     }
                     let slot = &mut next[(c - c0) as usize];
                     let dst = *slot as usize;
                     *slot += 1;
                     p[dst] = *q;
-                    b[dst] = bin_code(q[2]);
+                    b[dst] = (key >> CELL_BITS) as u8;
                     match carry {
                         Carry::Slots => s[dst] = points.scan[r.start + k],
                         Carry::Times => t[dst] = points.time[r.start + k],
