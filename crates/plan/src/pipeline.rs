@@ -106,13 +106,9 @@ pub fn plan(
         split_cloud_stories(&cloud.xyz, &params.stories)
     })?;
     // One pass finds where every story's grid lies.
-    let t0 = std::time::Instant::now();
     let (bounds, blocks) = timings.time(Stage::Samples, || {
         StoryBounds::measure_all(&cloud.xyz, &stories)
     });
-    if std::env::var_os("TRACE_SAMPLES").is_some() {
-        eprintln!("TRACE measure_all {:?}", t0.elapsed());
-    }
     let mut sample = |story: &Story| {
         let p = &params.samples;
         check_params(p, story)?;

@@ -361,7 +361,6 @@ impl Grid {
                 .then(|| (j - range.j.start) * width + (i - range.i.start))
         };
         let cells = range.cells();
-        let t0 = std::time::Instant::now();
 
         // The counting pass, one part of the spans per thread: every cell's summary, and each
         // point's key, recorded so the scatter need not find it again.
@@ -413,7 +412,6 @@ impl Grid {
                 },
             );
 
-        let t1 = std::time::Instant::now();
         // Which cells' points a neighbourhood will read.
         let mut needed = vec![false; cells];
         let id = |i: usize, j: usize| (j - range.j.start) * width + (i - range.i.start);
@@ -443,7 +441,6 @@ impl Grid {
             start[c + 1] = start[c] + if needed[c] { summaries[c].n } else { 0 };
         }
         let n = start[cells] as usize;
-        let t2 = std::time::Instant::now();
         let mut pts = vec![[0f32; 3]; n];
         let mut bins = vec![0u8; n];
         let mut slots = vec![0u16; if carry == Carry::Slots { n } else { 0 }];
@@ -494,9 +491,6 @@ impl Grid {
                 }
             }
         });
-        if std::env::var_os("TRACE_SAMPLES").is_some() {
-            eprintln!("TRACE count {:?} needed {:?} scatter {:?} total {}", t1 - t0, t2 - t1, t2.elapsed(), total);
-        }
         Ok(Grid {
             frame,
             range,

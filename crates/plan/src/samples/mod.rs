@@ -179,7 +179,6 @@ pub(crate) fn scan_cells(
         c => c,
     };
     let min_points = params.min_points.unwrap_or(ADAPTIVE_RANGE.0);
-    let t0 = std::time::Instant::now();
     let grid = Grid::build(
         points,
         spans,
@@ -197,16 +196,12 @@ pub(crate) fn scan_cells(
         min_points,
         core: &core,
     };
-    let t1 = std::time::Instant::now();
     let rows: Vec<Row> = core
         .j
         .clone()
         .into_par_iter()
         .map_init(Scratch::default, |s, j| scan.row(j, s))
         .collect();
-    if std::env::var_os("TRACE_SAMPLES").is_some() {
-        eprintln!("TRACE build {:?} rows {:?} pts {} cells {}", t1 - t0, t1.elapsed(), grid.pts.len(), grid.summaries.len());
-    }
     for row in rows {
         out.tally
             .iter_mut()
