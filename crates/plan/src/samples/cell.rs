@@ -186,17 +186,17 @@ impl Tests {
     }
 
     /// Runs every test on the neighbourhood `pts` of the cell whose lower-left corner is `lo`
-    /// and width `cell`. Reorders `pts` (median selection).
+    /// and width `cell`.
     #[cfg(test)]
     pub fn run(
         &self,
-        pts: &mut [[f32; 3]],
+        pts: &[[f32; 3]],
         lo: P2,
         cell: f64,
         min_points: usize,
     ) -> Result<Wall, Reject> {
         let bins: Vec<u8> = pts.iter().map(|p| self.bin_code(p[2])).collect();
-        self.run_binned(pts, &bins, lo, cell, min_points)
+        self.run_binned(pts, &bins, lo, cell, min_points, &mut Vec::new())
     }
 
     /// [`Self::bin_of`] as a byte, [`NO_BIN`] for `None`, for storing beside each point.
@@ -205,14 +205,16 @@ impl Tests {
         self.bin_of(z).map_or(NO_BIN, |b| b as u8)
     }
 
-    /// [`Self::run`] with each point's height bin given (see [`Self::bin_code`]).
+    /// [`Self::run`] with each point's height bin given (see [`Self::bin_code`]). `within`
+    /// is scratch for the median.
     pub fn run_binned(
         &self,
-        pts: &mut [[f32; 3]],
+        pts: &[[f32; 3]],
         bins: &[u8],
         lo: P2,
         cell: f64,
         min_points: usize,
+        within: &mut Vec<f32>,
     ) -> Result<Wall, Reject> {
         if pts.len() < min_points.max(2) {
             return Err(Reject::TooFew);
@@ -231,14 +233,7 @@ impl Tests {
                 (m | 1 << b, n + usize::from(b != 0 && b != last))
             });
         self.histogram(mask, n)?;
-        if median_outside(pts, lo, cell) {
-            return Err(Reject::MedianOutside);
-        }
-        let pos = median_xy(pts);
-        let inside = |k: usize| pos[k] >= lo[k] && pos[k] < lo[k] + cell;
-        if !(inside(0) && inside(1)) {
-            return Err(Reject::MedianOutside);
-        }
+        let pos = median_in_cell(pts, lo, cell, within).ok_or(Reject::MedianOutside)?;
         let (normal, confidence) = pca_normal(pts).ok_or(Reject::Unaligned)?;
         if confidence < self.min_confidence {
             return Err(Reject::Unaligned);
@@ -273,10 +268,12 @@ fn likely_filled(bins: usize, p: f64, cap: usize) -> u32 {
     0
 }
 
-/// True when counting alone proves the median (of [`median_xy`]) lies outside the cell at
-/// `lo`: more than the points below the median's rank lie on one side of it. Most cells next
-/// to a wall fail so, and counting is much cheaper than selecting.
-fn median_outside(pts: &[[f32; 3]], lo: P2, cell: f64) -> bool {
+/// The component-wise median of x and y (the upper median for an even count) when it lies in
+/// the cell at `lo`, `None` when it does not. Counting the points below and beyond the cell
+/// settles most cells next to a wall, which fail; for the rest the median is a known rank
+/// among the points within the cell's span, a third or so of them, so only those are selected
+/// from. `within` is scratch.
+fn median_in_cell(pts: &[[f32; 3]], lo: P2, cell: f64, within: &mut Vec<f32>) -> Option<P2> {
     let mid = pts.len() / 2;
     let mut below = [0usize; 2];
     let mut above = [0usize; 2];
@@ -289,18 +286,22 @@ fn median_outside(pts: &[[f32; 3]], lo: P2, cell: f64) -> bool {
     }
     // The median is element `mid` in sorted order: below the cell when `mid + 1` points are,
     // at or beyond its far edge when `len - mid` points are.
-    (0..2).any(|k| below[k] > mid || above[k] >= pts.len() - mid)
-}
-
-/// The component-wise median of x and y (the upper median for an even count).
-fn median_xy(pts: &mut [[f32; 3]]) -> P2 {
-    let mid = pts.len() / 2;
+    if (0..2).any(|k| below[k] > mid || above[k] >= pts.len() - mid) {
+        return None;
+    }
     let mut m = [0.0; 2];
     for (k, slot) in m.iter_mut().enumerate() {
-        pts.select_nth_unstable_by(mid, |a, b| a[k].total_cmp(&b[k]));
-        *slot = pts[mid][k] as f64;
+        within.clear();
+        within.extend(pts.iter().map(|p| p[k]).filter(|&v| {
+            let v = v as f64;
+            v >= lo[k] && v < lo[k] + cell
+        }));
+        // Fewer than `mid + 1` points lie below and fewer than `len - mid` beyond, so the
+        // rank falls within.
+        let (_, v, _) = within.select_nth_unstable_by(mid - below[k], f32::total_cmp);
+        *slot = *v as f64;
     }
-    m
+    Some(m)
 }
 
 /// The PCA normal of the x, y positions: the eigenvector of the smaller eigenvalue λ1 of the
@@ -368,9 +369,53 @@ mod tests {
     }
 
     #[test]
+    fn the_median_in_a_cell_is_the_median_of_all_the_points() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut within = Vec::new();
+        let (mut inside, mut outside) = (0, 0);
+        for n in 1..400 {
+            let pts: Vec<[f32; 3]> = (0..n)
+                .map(|_| {
+                    [
+                        rng.random_range(-0.1..0.1),
+                        rng.random_range(-0.1..0.1),
+                        0.0,
+                    ]
+                })
+                .collect();
+            let lo = [rng.random_range(-0.1..0.05), rng.random_range(-0.1..0.05)];
+            let cell = 0.05;
+            // The median by sorting every coordinate.
+            let median = |k: usize| {
+                let mut v: Vec<f32> = pts.iter().map(|p| p[k]).collect();
+                v.sort_by(f32::total_cmp);
+                v[n / 2] as f64
+            };
+            let m = [median(0), median(1)];
+            let in_cell = (0..2).all(|k| m[k] >= lo[k] && m[k] < lo[k] + cell);
+            match median_in_cell(&pts, lo, cell, &mut within) {
+                Some(got) => {
+                    assert_eq!(got, m, "n = {n}");
+                    inside += 1;
+                }
+                None => {
+                    assert!(
+                        !in_cell,
+                        "n = {n}: the median {m:?} is in the cell at {lo:?}"
+                    );
+                    outside += 1;
+                }
+            }
+        }
+        // Both ways were tried.
+        assert!(inside > 20 && outside > 20, "{inside} {outside}");
+    }
+
+    #[test]
     fn a_wall_cell_passes_with_the_normal_across_it() {
-        let mut pts = wall(-0.05, 0.02, 10, (0.0, 3.0), 20);
-        let w = tests().run(&mut pts, [-0.025, 0.0], 0.05, 50).unwrap();
+        let pts = wall(-0.05, 0.02, 10, (0.0, 3.0), 20);
+        let w = tests().run(&pts, [-0.025, 0.0], 0.05, 50).unwrap();
         assert!((w.pos[1] - 0.02).abs() < 0.003, "{w:?}");
         assert!(w.normal[0].abs() < 1e-6 && (w.normal[1] - 1.0).abs() < 1e-9);
         assert!(w.confidence > 0.9);
@@ -380,7 +425,7 @@ mod tests {
     fn each_test_rejects_in_turn() {
         let t = tests();
         let lo = [-0.025, 0.0];
-        let run = |mut pts: Vec<[f32; 3]>| t.run(&mut pts, lo, 0.05, 50);
+        let run = |pts: Vec<[f32; 3]>| t.run(&pts, lo, 0.05, 50);
         // 40 points < 50.
         assert_eq!(
             run(wall(-0.05, 0.02, 4, (0.0, 3.0), 10)),
@@ -427,14 +472,14 @@ mod tests {
             })
         };
         // Two walls crossing: the covariance is isotropic, c = 0.
-        let mut cross: Vec<[f32; 3]> = [[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]]
+        let cross: Vec<[f32; 3]> = [[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]]
             .into_iter()
             .flat_map(arm)
             .collect();
         let (_, c) = pca_normal(&cross).unwrap();
         assert!(c < 0.01, "c = {c}");
         assert_eq!(
-            tests().run(&mut cross, [-0.025, 0.0], 0.05, 50),
+            tests().run(&cross, [-0.025, 0.0], 0.05, 50),
             Err(Reject::Unaligned)
         );
         // An L of equal arms: per point, var = E[s²]/2 - m²/4 and cov = -m²/4 with m = E[s],

@@ -135,6 +135,27 @@ impl StoryBounds {
             .par_chunks(Blocks::SIZE)
             .map(|block| {
                 let mut acc = vec![StoryBounds::default(); stories.len()];
+                let (lo, hi) = block
+                    .iter()
+                    .fold((f32::INFINITY, f32::NEG_INFINITY), |z, p| {
+                        (z.0.min(p[2]), z.1.max(p[2]))
+                    });
+                let finite = block.iter().all(|p| p.iter().all(|c| c.is_finite()));
+                // A scanner station sees mostly its own story, so most blocks lie within one:
+                // their bounds are plain minima and maxima, with no per-point story lookup.
+                let k = stories.partition_point(|s| s.z_max <= lo as f64);
+                match stories.get(k) {
+                    Some(s) if finite && in_story(s, lo) && in_story(s, hi) => {
+                        acc[k] = block.iter().fold(acc[k], |b, p| StoryBounds {
+                            lo: [b.lo[0].min(p[0]), b.lo[1].min(p[1])],
+                            hi: [b.hi[0].max(p[0]), b.hi[1].max(p[1])],
+                            ..b
+                        });
+                        acc[k].n = block.len();
+                        return (acc, (lo, hi));
+                    }
+                    _ => {}
+                }
                 let mut z = (f32::INFINITY, f32::NEG_INFINITY);
                 for p in block {
                     if !p.iter().all(|c| c.is_finite()) {
@@ -677,6 +698,43 @@ mod tests {
         assert_eq!(blocks.spans(&upper), vec![Blocks::SIZE..2 * Blocks::SIZE]);
         let pieces = split_spans(&[0..5, 10..12], 3);
         assert_eq!(pieces, vec![vec![0..3], vec![3..5, 10..11], vec![11..12]]);
+    }
+
+    #[test]
+    fn bounds_of_all_stories_at_once_match_each_story_measured_alone() {
+        let lower = story();
+        let upper = Story {
+            level: 1,
+            floor_z: 4.0,
+            ceiling_z: 6.0,
+            z_min: 2.0,
+            z_max: 7.0,
+        };
+        // Block 0 lies in the lower story, block 1 straddles both, block 2 holds a NaN.
+        let n = Blocks::SIZE;
+        let xyz: Vec<[f32; 3]> = (0..3 * n)
+            .map(|k| {
+                let (x, y) = ((k % 997) as f32 * 0.01, (k % 389) as f32 * -0.02);
+                let z = match k / n {
+                    0 => 0.5 + (k % 7) as f32 * 0.1,
+                    1 => (k % 13) as f32 * 0.5,
+                    _ if k == 2 * n + 5 => f32::NAN,
+                    _ => 5.0,
+                };
+                [x + (k / n) as f32, y, z]
+            })
+            .collect();
+        let stories = [lower.clone(), upper.clone()];
+        let (bounds, _) = StoryBounds::measure_all(&xyz, &stories);
+        for (b, s) in bounds.iter().zip(&stories) {
+            assert_eq!(*b, StoryBounds::measure(&xyz, s), "story {}", s.level);
+            assert!(b.n > 0);
+        }
+        assert_eq!(bounds[0].non_finite, 1);
+        // Without the NaN block, every point is counted in one story or the other.
+        let (bounds, _) = StoryBounds::measure_all(&xyz[..2 * n], &stories);
+        assert_eq!((bounds[0].non_finite, bounds[1].non_finite), (0, 0));
+        assert_eq!(bounds[0].n + bounds[1].n, 2 * n);
     }
 
     #[test]

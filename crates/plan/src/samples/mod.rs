@@ -408,6 +408,8 @@ struct Scratch {
     bins: Vec<u8>,
     slots: Vec<u16>,
     times: Vec<f64>,
+    /// For the median: coordinates within the cell's span.
+    within: Vec<f32>,
 }
 
 /// Everything a row scan reads.
@@ -457,22 +459,25 @@ impl Scan<'_> {
         self.gather(i, j, s);
         let lo = g.frame.corner(i, j);
         let count = s.pts.len();
-        let wall =
-            match self
-                .tests
-                .run_binned(&mut s.pts, &s.bins, lo, g.frame.cell, self.min_points)
-            {
-                Ok(w) => w,
-                Err(r) if r.wall_like() => {
-                    return Ok(Some(Found {
-                        count,
-                        sample: None,
-                        nearest: None,
-                        why: Some(r),
-                    }))
-                }
-                Err(r) => return Err(r),
-            };
+        let wall = match self.tests.run_binned(
+            &s.pts,
+            &s.bins,
+            lo,
+            g.frame.cell,
+            self.min_points,
+            &mut s.within,
+        ) {
+            Ok(w) => w,
+            Err(r) if r.wall_like() => {
+                return Ok(Some(Found {
+                    count,
+                    sample: None,
+                    nearest: None,
+                    why: Some(r),
+                }))
+            }
+            Err(r) => return Err(r),
+        };
         let seen = self
             .views
             .observe(&s.slots, &s.times, count, wall.pos, wall.normal);
