@@ -724,7 +724,7 @@ mod tests {
                 [x + (k / n) as f32, y, z]
             })
             .collect();
-        let stories = [lower.clone(), upper.clone()];
+        let stories = [lower, upper];
         let (bounds, _) = StoryBounds::measure_all(&xyz, &stories);
         for (b, s) in bounds.iter().zip(&stories) {
             assert_eq!(*b, StoryBounds::measure(&xyz, s), "story {}", s.level);
