@@ -156,7 +156,9 @@ impl Pipeline for FakePipeline {
                 .append(true)
                 .open(log)
                 .map_err(|e| PipelineFailure::new("io_error", e.to_string()))?;
-            let _ = writeln!(f, "{}", input.job);
+            // One write per line: `writeln!` writes the id and the newline separately, and two
+            // workers appending at once interleaved them ("id1id2\n\n").
+            let _ = f.write_all(format!("{}\n", input.job).as_bytes());
         }
         Ok(results)
     }
