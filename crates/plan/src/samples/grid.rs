@@ -384,33 +384,19 @@ impl Grid {
         let cells = range.cells();
 
         // The counting pass, one part of the spans per thread: every cell's summary, and each
-        // point's key, recorded so the scatter need not find it again.
+        // point's key, recorded so the scatter need not find it again. Each thread writes its
+        // own keys, so their pages are not first filled by one thread.
         let parts = rayon::current_num_threads().max(1);
         let total: usize = spans.iter().map(|r| r.len()).sum();
         let pieces = split_spans(&spans, total.div_ceil(parts).max(1));
-        let mut keys = vec![NO_KEY; total];
-        let mut key_parts = Vec::with_capacity(pieces.len());
-        {
-            let mut rest = &mut keys[..];
-            for piece in &pieces {
-                let len = piece.iter().map(|r| r.len()).sum();
-                let (k, r) = rest.split_at_mut(len);
-                key_parts.push(k);
-                rest = r;
-            }
-        }
-        let summaries = pieces
+        let counted: Vec<(Vec<Summary>, Vec<u32>)> = pieces
             .par_iter()
-            .zip(key_parts)
-            .map(|(piece, keys)| {
+            .map(|piece| {
                 let mut sums = vec![Summary::default(); cells];
-                let mut at = 0;
+                let mut keys = Vec::with_capacity(piece.iter().map(|r| r.len()).sum());
                 for r in piece {
-                    let pts = &xyz[r.clone()];
-                    let keys = &mut keys[at..at + pts.len()];
-                    at += pts.len();
-                    for (slot, p) in keys.iter_mut().zip(pts) {
-                        let Some(c) = key(p) else { continue };
+                    keys.extend(xyz[r.clone()].iter().map(|p| {
+                        let Some(c) = key(p) else { return NO_KEY };
                         let s = &mut sums[c];
                         s.n += 1;
                         s.zmin = s.zmin.min(p[2]);
@@ -420,18 +406,21 @@ impl Grid {
                             s.mask |= 1 << b;
                         }
                         // The bin rides along for the scatter.
-                        *slot = c as u32 | u32::from(b) << CELL_BITS;
-                    }
+                        c as u32 | u32::from(b) << CELL_BITS
+                    }));
                 }
-                sums
+                (sums, keys)
             })
-            .reduce(
-                || vec![Summary::default(); cells],
-                |mut a, b| {
-                    a.iter_mut().zip(&b).for_each(|(x, y)| x.merge(y));
-                    a
-                },
-            );
+            .collect();
+        let mut summaries = vec![Summary::default(); cells];
+        let mut keys = Vec::with_capacity(counted.len());
+        for (sums, k) in counted {
+            summaries
+                .iter_mut()
+                .zip(&sums)
+                .for_each(|(x, y)| x.merge(y));
+            keys.push(k);
+        }
 
         // Which cells' points a neighbourhood will read.
         let mut needed = vec![false; cells];
@@ -490,24 +479,26 @@ impl Grid {
             let base = start[band.start];
             let mut next: Vec<u32> = start[band.clone()].iter().map(|&v| v - base).collect();
             let (c0, c1) = (band.start as u32, band.end as u32);
-            let mut at = 0;
-            for r in &spans {
-                for (k, q) in xyz[r.clone()].iter().enumerate() {
-                    let key = keys[at];
-                    at += 1;
-                    let c = key & CELL_MASK;
-                    if key == NO_KEY || c < c0 || c >= c1 || !needed[c as usize] {
-                        continue;
-                    }
-                    let slot = &mut next[(c - c0) as usize];
-                    let dst = *slot as usize;
-                    *slot += 1;
-                    p[dst] = *q;
-                    b[dst] = (key >> CELL_BITS) as u8;
-                    match carry {
-                        Carry::Slots => s[dst] = points.scan[r.start + k],
-                        Carry::Times => t[dst] = points.time[r.start + k],
-                        Carry::Nothing => {}
+            for (piece, keys) in pieces.iter().zip(keys) {
+                let mut at = 0;
+                for r in piece {
+                    for (k, q) in xyz[r.clone()].iter().enumerate() {
+                        let key = keys[at];
+                        at += 1;
+                        let c = key & CELL_MASK;
+                        if key == NO_KEY || c < c0 || c >= c1 || !needed[c as usize] {
+                            continue;
+                        }
+                        let slot = &mut next[(c - c0) as usize];
+                        let dst = *slot as usize;
+                        *slot += 1;
+                        p[dst] = *q;
+                        b[dst] = (key >> CELL_BITS) as u8;
+                        match carry {
+                            Carry::Slots => s[dst] = points.scan[r.start + k],
+                            Carry::Times => t[dst] = points.time[r.start + k],
+                            Carry::Nothing => {}
+                        }
                     }
                 }
             }
