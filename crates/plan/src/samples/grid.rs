@@ -11,6 +11,7 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 
+use super::cell::Reject;
 use super::SamplesError;
 use crate::stories::Story;
 
@@ -18,6 +19,17 @@ use crate::stories::Story;
 /// holds far outliers, and the per-cell arrays would waste memory. A cell's index fits in the
 /// low [`CELL_BITS`] of a point's key.
 pub(crate) const MAX_CELLS: usize = (1 << CELL_BITS) - 1;
+
+/// What a core cell's block summary says before any neighbourhood is gathered.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Screen {
+    /// No points in the block.
+    Empty,
+    /// Even the whole block fails a test, so the neighbourhood within it does.
+    Rejected(Reject),
+    /// The neighbourhood is gathered and tested.
+    Candidate,
+}
 
 /// A point's key in the counting pass holds its held cell in these low bits and its height
 /// bin code in the byte above.
@@ -297,7 +309,10 @@ pub(super) struct Grid {
     pub slots: Vec<u16>,
     pub times: Vec<f64>,
     /// Per held cell: the count and heights of all its points.
+    #[cfg(test)]
     pub summaries: Vec<Summary>,
+    /// Per held cell: what the summary of its 3 × 3 block says (`Empty` outside the core).
+    pub screens: Vec<Screen>,
 }
 
 /// The heights of one cell's own points: their number and range, and which height bins they
@@ -339,8 +354,9 @@ impl Grid {
     /// Sorts the points of `story` (those with `z_min <= z < z_max`) that fall in `range` of
     /// `frame` by cell, and summarizes each cell's heights with `bin_code`, a height's bin
     /// (see [`super::cell::Tests::bin_code`]). Only the points in `spans` (index ranges, in
-    /// order) are looked at; `None` is all. The points of a cell are kept only when it lies in
-    /// the 3 × 3 block of a cell of `core` whose block summary passes `candidate`.
+    /// order) are looked at; `None` is all. Each cell of `core` is screened by `screen` on its
+    /// block's summary, and the points of a cell are kept only when it lies in the 3 × 3 block
+    /// of a candidate.
     #[allow(clippy::too_many_arguments)]
     pub fn build(
         points: Points<'_>,
@@ -350,7 +366,7 @@ impl Grid {
         core: &CellRange,
         carry: Carry,
         bin_code: impl Fn(f32) -> u8 + Sync,
-        candidate: impl Fn(&Summary) -> bool,
+        screen: impl Fn(&Summary) -> Result<(), Reject> + Sync,
     ) -> Result<Grid, SamplesError> {
         let xyz = points.xyz;
         let range = core.grown(&frame);
@@ -422,30 +438,51 @@ impl Grid {
             keys.push(k);
         }
 
-        // Which cells' points a neighbourhood will read.
-        let mut needed = vec![false; cells];
+        // What each core cell's block summary says, a row per task, then which cells' points
+        // a candidate's neighbourhood will read.
         let id = |i: usize, j: usize| (j - range.j.start) * width + (i - range.i.start);
-        for j in core.j.clone() {
-            for i in core.i.clone() {
-                let mut block = Summary::default();
-                let (xs, ys) = (
-                    i.saturating_sub(1).max(range.i.start)..(i + 2).min(range.i.end),
-                    j.saturating_sub(1).max(range.j.start)..(j + 2).min(range.j.end),
-                );
-                for b in ys.clone() {
-                    for a in xs.clone() {
-                        block.merge(&summaries[id(a, b)]);
-                    }
-                }
-                if block.n > 0 && candidate(&block) {
-                    for b in ys.clone() {
+        let block_of = |i: usize, j: usize| {
+            (
+                i.saturating_sub(1).max(range.i.start)..(i + 2).min(range.i.end),
+                j.saturating_sub(1).max(range.j.start)..(j + 2).min(range.j.end),
+            )
+        };
+        let mut screens = vec![Screen::Empty; cells];
+        screens
+            .par_chunks_mut(width)
+            .enumerate()
+            .filter(|(row, _)| core.j.contains(&(range.j.start + row)))
+            .for_each(|(row, out)| {
+                let j = range.j.start + row;
+                for i in core.i.clone() {
+                    let (xs, ys) = block_of(i, j);
+                    let mut block = Summary::default();
+                    for b in ys {
                         for a in xs.clone() {
-                            needed[id(a, b)] = true;
+                            block.merge(&summaries[id(a, b)]);
                         }
                     }
+                    if block.n > 0 {
+                        out[i - range.i.start] = match screen(&block) {
+                            Ok(()) => Screen::Candidate,
+                            Err(r) => Screen::Rejected(r),
+                        };
+                    }
                 }
-            }
-        }
+            });
+        let mut needed = vec![false; cells];
+        needed
+            .par_chunks_mut(width)
+            .enumerate()
+            .for_each(|(row, out)| {
+                let j = range.j.start + row;
+                for (k, slot) in out.iter_mut().enumerate() {
+                    let (xs, ys) = block_of(range.i.start + k, j);
+                    *slot = ys
+                        .into_iter()
+                        .any(|b| xs.clone().any(|a| screens[id(a, b)] == Screen::Candidate));
+                }
+            });
         let mut start = vec![0u32; cells + 1];
         for c in 0..cells {
             start[c + 1] = start[c] + if needed[c] { summaries[c].n } else { 0 };
@@ -511,7 +548,9 @@ impl Grid {
             bins,
             slots,
             times,
+            #[cfg(test)]
             summaries,
+            screens,
         })
     }
 
@@ -539,6 +578,7 @@ impl Grid {
     }
 
     /// The held cells of the 3 × 3 block around `(i, j)`.
+    #[cfg(test)]
     pub fn block(&self, i: usize, j: usize) -> impl Iterator<Item = (usize, usize)> {
         let r = &self.range;
         let xs = i.saturating_sub(1).max(r.i.start)..(i + 2).min(r.i.end);
@@ -625,7 +665,7 @@ mod tests {
             &range,
             Carry::Slots,
             |z| (z > 0.75) as u8,
-            |_| true,
+            |_| Ok(()),
         )
         .unwrap()
     }

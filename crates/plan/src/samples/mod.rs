@@ -20,7 +20,7 @@ use crate::geom::P2;
 use crate::stories::Story;
 use cell::{Reject, Tests};
 pub use grid::{Blocks, CellRange, GridFrame, StoryBounds};
-use grid::{Carry, Grid, Points, Summary};
+use grid::{Carry, Grid, Points, Screen, Summary};
 use views::Views;
 
 /// Parameters of [`sample_walls`].
@@ -187,7 +187,7 @@ pub(crate) fn scan_cells(
         &core,
         carry,
         |z| tests.bin_code(z),
-        |block| prefilter(&tests, block, min_points).is_ok(),
+        |block| prefilter(&tests, block, min_points),
     )?;
     let scan = Scan {
         grid: &grid,
@@ -448,14 +448,11 @@ impl Scan<'_> {
     /// Tests cell `(i, j)`. `Ok(None)` for a cell with no points around it.
     fn cell(&self, i: usize, j: usize, s: &mut Scratch) -> Result<Option<Found>, Reject> {
         let g = self.grid;
-        let mut block = Summary::default();
-        for (a, b) in g.block(i, j) {
-            block.merge(&g.summaries[g.id(a, b)]);
+        match g.screens[g.id(i, j)] {
+            Screen::Empty => return Ok(None),
+            Screen::Rejected(r) => return Err(r),
+            Screen::Candidate => {}
         }
-        if block.n == 0 {
-            return Ok(None);
-        }
-        prefilter(self.tests, &block, self.min_points)?;
         self.gather(i, j, s);
         let lo = g.frame.corner(i, j);
         let count = s.pts.len();
