@@ -92,10 +92,10 @@ pub struct StreamReport {
     pub points: u64,
 }
 
-/// Per-point and per-cell costs of a tile in memory, bytes: the tile's points, the sorted copy
-/// of one story's points, and the grid's per-cell arrays (offsets, summaries, a count per
-/// thread).
-const CELL_BYTES: u64 = 48;
+/// Per-cell cost of a tile's grid in memory, bytes: offsets, summaries, the kept-cell flags and
+/// block screens; and [`CELL_BYTES_PER_THREAD`] more for each counting thread's summaries.
+const CELL_BYTES: u64 = 24;
+const CELL_BYTES_PER_THREAD: u64 = 16;
 /// The coarse count grid never has more cells than this (8 MiB of counts).
 const MAX_COARSE: usize = 1 << 20;
 /// More tiles than this would keep too many files open.
@@ -514,6 +514,8 @@ impl Tiling {
         let record = 12 + 2 * u64::from(!survey.no_scan) + 8 * u64::from(survey.has_time);
         // The tile's points, and the sorted copy of one story's.
         let point_bytes = 2 * record;
+        let threads = rayon::current_num_threads().max(1) as u64;
+        let cell_bytes = CELL_BYTES + CELL_BYTES_PER_THREAD * threads;
         let fixed = (survey.coarse.counts.len() * 8 * 2) as u64
             + (skeleton.scan_ids.len() * 64) as u64
             + (1 << 20);
@@ -554,7 +556,7 @@ impl Tiling {
                     worst = worst.max(n);
                 }
             }
-            let need = worst * point_bytes + cells * CELL_BYTES + (tiles * buffer) as u64;
+            let need = worst * point_bytes + cells * cell_bytes + (tiles * buffer) as u64;
             let fits = need <= usable && cells <= MAX_CELLS as u64 && buffer >= 4096;
             if fits && tiles <= MAX_TILES {
                 return Ok(Tiling {
