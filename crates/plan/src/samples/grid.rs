@@ -400,19 +400,35 @@ impl Grid {
         let cells = range.cells();
 
         // The counting pass, one part of the spans per thread: every cell's summary, and each
-        // point's key, recorded so the scatter need not find it again. Each thread writes its
-        // own keys, so their pages are not first filled by one thread.
+        // point's key, recorded so the scatter need not find it again. Every key is written
+        // here, so the array starts as zeroed pages that each thread faults in for its part.
         let parts = rayon::current_num_threads().max(1);
         let total: usize = spans.iter().map(|r| r.len()).sum();
         let pieces = split_spans(&spans, total.div_ceil(parts).max(1));
-        let counted: Vec<(Vec<Summary>, Vec<u32>)> = pieces
+        let mut keys = vec![0u32; total];
+        let mut key_parts = Vec::with_capacity(pieces.len());
+        {
+            let mut rest = &mut keys[..];
+            for piece in &pieces {
+                let len = piece.iter().map(|r| r.len()).sum();
+                let (k, r) = rest.split_at_mut(len);
+                key_parts.push(k);
+                rest = r;
+            }
+        }
+        let summaries = pieces
             .par_iter()
-            .map(|piece| {
+            .zip(key_parts)
+            .map(|(piece, keys)| {
                 let mut sums = vec![Summary::default(); cells];
-                let mut keys = Vec::with_capacity(piece.iter().map(|r| r.len()).sum());
+                let mut at = 0;
                 for r in piece {
-                    keys.extend(xyz[r.clone()].iter().map(|p| {
-                        let Some(c) = key(p) else { return NO_KEY };
+                    let pts = &xyz[r.clone()];
+                    for (slot, p) in keys[at..at + pts.len()].iter_mut().zip(pts) {
+                        let Some(c) = key(p) else {
+                            *slot = NO_KEY;
+                            continue;
+                        };
                         let s = &mut sums[c];
                         s.n += 1;
                         s.zmin = s.zmin.min(p[2]);
@@ -422,21 +438,17 @@ impl Grid {
                             s.mask |= 1 << b;
                         }
                         // The bin rides along for the scatter.
-                        c as u32 | u32::from(b) << CELL_BITS
-                    }));
+                        *slot = c as u32 | u32::from(b) << CELL_BITS;
+                    }
+                    at += pts.len();
                 }
-                (sums, keys)
+                sums
             })
-            .collect();
-        let mut summaries = vec![Summary::default(); cells];
-        let mut keys = Vec::with_capacity(counted.len());
-        for (sums, k) in counted {
-            summaries
-                .iter_mut()
-                .zip(&sums)
-                .for_each(|(x, y)| x.merge(y));
-            keys.push(k);
-        }
+            .reduce_with(|mut a, b| {
+                a.iter_mut().zip(&b).for_each(|(x, y)| x.merge(y));
+                a
+            })
+            .unwrap_or_else(|| vec![Summary::default(); cells]);
 
         // What each core cell's block summary says, a row per task, then which cells' points
         // a candidate's neighbourhood will read.
@@ -516,26 +528,24 @@ impl Grid {
             let base = start[band.start];
             let mut next: Vec<u32> = start[band.clone()].iter().map(|&v| v - base).collect();
             let (c0, c1) = (band.start as u32, band.end as u32);
-            for (piece, keys) in pieces.iter().zip(keys) {
-                let mut at = 0;
-                for r in piece {
-                    for (k, q) in xyz[r.clone()].iter().enumerate() {
-                        let key = keys[at];
-                        at += 1;
-                        let c = key & CELL_MASK;
-                        if key == NO_KEY || c < c0 || c >= c1 || !needed[c as usize] {
-                            continue;
-                        }
-                        let slot = &mut next[(c - c0) as usize];
-                        let dst = *slot as usize;
-                        *slot += 1;
-                        p[dst] = *q;
-                        b[dst] = (key >> CELL_BITS) as u8;
-                        match carry {
-                            Carry::Slots => s[dst] = points.scan[r.start + k],
-                            Carry::Times => t[dst] = points.time[r.start + k],
-                            Carry::Nothing => {}
-                        }
+            let mut at = 0;
+            for r in &spans {
+                for (k, q) in xyz[r.clone()].iter().enumerate() {
+                    let key = keys[at];
+                    at += 1;
+                    let c = key & CELL_MASK;
+                    if key == NO_KEY || c < c0 || c >= c1 || !needed[c as usize] {
+                        continue;
+                    }
+                    let slot = &mut next[(c - c0) as usize];
+                    let dst = *slot as usize;
+                    *slot += 1;
+                    p[dst] = *q;
+                    b[dst] = (key >> CELL_BITS) as u8;
+                    match carry {
+                        Carry::Slots => s[dst] = points.scan[r.start + k],
+                        Carry::Times => t[dst] = points.time[r.start + k],
+                        Carry::Nothing => {}
                     }
                 }
             }
