@@ -95,6 +95,14 @@ impl CellRange {
         self.i.len() * self.j.len()
     }
 
+    /// The 3 × 3 block of cells around `(i, j)`, clipped to this range: columns, then rows.
+    fn block_around(&self, i: usize, j: usize) -> (Range<usize>, Range<usize>) {
+        (
+            i.saturating_sub(1).max(self.i.start)..(i + 2).min(self.i.end),
+            j.saturating_sub(1).max(self.j.start)..(j + 2).min(self.j.end),
+        )
+    }
+
     /// The range grown by one cell on every side, clipped to `frame`.
     pub fn grown(&self, frame: &GridFrame) -> CellRange {
         CellRange {
@@ -158,12 +166,7 @@ impl StoryBounds {
                 let k = stories.partition_point(|s| s.z_max <= lo as f64);
                 match stories.get(k) {
                     Some(s) if finite && in_story(s, lo) && in_story(s, hi) => {
-                        acc[k] = block.iter().fold(acc[k], |b, p| StoryBounds {
-                            lo: [b.lo[0].min(p[0]), b.lo[1].min(p[1])],
-                            hi: [b.hi[0].max(p[0]), b.hi[1].max(p[1])],
-                            ..b
-                        });
-                        acc[k].n = block.len();
+                        acc[k] = block.iter().fold(acc[k], StoryBounds::include);
                         return (acc, (lo, hi));
                     }
                     _ => {}
@@ -205,11 +208,20 @@ impl StoryBounds {
         if !p.iter().all(|c| c.is_finite()) {
             self.non_finite += 1;
         } else if in_story(story, p[2]) {
-            self.lo = [self.lo[0].min(p[0]), self.lo[1].min(p[1])];
-            self.hi = [self.hi[0].max(p[0]), self.hi[1].max(p[1])];
-            self.n += 1;
+            self = self.include(p);
         }
         self
+    }
+
+    /// Widens the bounds to take in `p` and counts it.
+    #[inline]
+    fn include(self, p: &[f32; 3]) -> StoryBounds {
+        StoryBounds {
+            lo: [self.lo[0].min(p[0]), self.lo[1].min(p[1])],
+            hi: [self.hi[0].max(p[0]), self.hi[1].max(p[1])],
+            n: self.n + 1,
+            ..self
+        }
     }
 
     pub fn merge(a: StoryBounds, b: StoryBounds) -> StoryBounds {
@@ -453,12 +465,6 @@ impl Grid {
         // What each core cell's block summary says, a row per task, then which cells' points
         // a candidate's neighbourhood will read.
         let id = |i: usize, j: usize| (j - range.j.start) * width + (i - range.i.start);
-        let block_of = |i: usize, j: usize| {
-            (
-                i.saturating_sub(1).max(range.i.start)..(i + 2).min(range.i.end),
-                j.saturating_sub(1).max(range.j.start)..(j + 2).min(range.j.end),
-            )
-        };
         let mut screens = vec![Screen::Empty; cells];
         screens
             .par_chunks_mut(width)
@@ -467,7 +473,7 @@ impl Grid {
             .for_each(|(row, out)| {
                 let j = range.j.start + row;
                 for i in core.i.clone() {
-                    let (xs, ys) = block_of(i, j);
+                    let (xs, ys) = range.block_around(i, j);
                     let mut block = Summary::default();
                     for b in ys {
                         for a in xs.clone() {
@@ -489,7 +495,7 @@ impl Grid {
             .for_each(|(row, out)| {
                 let j = range.j.start + row;
                 for (k, slot) in out.iter_mut().enumerate() {
-                    let (xs, ys) = block_of(range.i.start + k, j);
+                    let (xs, ys) = range.block_around(range.i.start + k, j);
                     *slot = ys
                         .into_iter()
                         .any(|b| xs.clone().any(|a| screens[id(a, b)] == Screen::Candidate));
@@ -580,20 +586,18 @@ impl Grid {
     /// Where the points of the 3 × 3 block around `(i, j)` lie in `pts`: one run per row,
     /// the rows in order (a row's cells are consecutive).
     pub fn block_runs(&self, i: usize, j: usize) -> impl Iterator<Item = Range<usize>> + '_ {
-        let r = &self.range;
-        let (a0, a1) = (i.saturating_sub(1).max(r.i.start), (i + 2).min(r.i.end));
-        (j.saturating_sub(1).max(r.j.start)..(j + 2).min(r.j.end)).map(move |b| {
-            self.start[self.id(a0, b)] as usize..self.start[self.id(a1 - 1, b) + 1] as usize
+        let (xs, ys) = self.range.block_around(i, j);
+        ys.map(move |b| {
+            self.start[self.id(xs.start, b)] as usize
+                ..self.start[self.id(xs.end - 1, b) + 1] as usize
         })
     }
 
     /// The held cells of the 3 × 3 block around `(i, j)`.
     #[cfg(test)]
     pub fn block(&self, i: usize, j: usize) -> impl Iterator<Item = (usize, usize)> {
-        let r = &self.range;
-        let xs = i.saturating_sub(1).max(r.i.start)..(i + 2).min(r.i.end);
-        (j.saturating_sub(1).max(r.j.start)..(j + 2).min(r.j.end))
-            .flat_map(move |b| xs.clone().map(move |a| (a, b)))
+        let (xs, ys) = self.range.block_around(i, j);
+        ys.flat_map(move |b| xs.clone().map(move |a| (a, b)))
     }
 }
 
