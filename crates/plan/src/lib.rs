@@ -30,6 +30,7 @@ pub mod simulate;
 pub mod smoothing;
 pub mod stories;
 pub mod streaming;
+pub mod validity;
 
 pub use cloud::PointCloud;
 pub use params::Params;

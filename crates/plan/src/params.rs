@@ -114,10 +114,8 @@ impl Params {
                 format!("{} is not an area of 0 m² or more", c.max_hole_area),
             ));
         }
-        match self.fitting.check() {
-            Err(FittingError::BadParam { name, why }) => return Err(named("fitting", name, why)),
-            Err(e) => return Err(named("fitting", "?", e.to_string())),
-            Ok(()) => {}
+        if let Err(FittingError::BadParam { name, why }) = self.fitting.check() {
+            return Err(named("fitting", name, why));
         }
         Ok(())
     }
