@@ -15,7 +15,7 @@ use asbuilt_plan::geom::P2;
 use asbuilt_plan::io::{self, poses};
 use asbuilt_plan::labeling::{label, LabeledMesh};
 use asbuilt_plan::samples::sample_walls;
-use asbuilt_plan::simulate::{simulate, BuildingKind, ScanOptions};
+use asbuilt_plan::simulate::{random, scan, BuildingKind, ScanOptions};
 use asbuilt_plan::smoothing::smooth_samples;
 use asbuilt_plan::stories::split_stories;
 use asbuilt_plan::Params;
@@ -34,14 +34,16 @@ fn main() {
             (cloud, None)
         }
         None => {
-            let kind = BuildingKind::from_name(&args[0]).expect("a building name");
+            let building = random::from_name(&args[0])
+                .or_else(|| BuildingKind::from_name(&args[0]).map(BuildingKind::build))
+                .expect("a building name (or random_SEED, random30_SEED)");
             let options = ScanOptions {
                 points: args[1].parse().unwrap(),
                 seed: args[2].parse().unwrap(),
                 mobile: args.iter().any(|a| a == "--mobile"),
                 ..Default::default()
             };
-            let sim = simulate(kind, &options).unwrap();
+            let sim = scan(&building, &options).unwrap();
             args.drain(..3);
             (sim.cloud, Some(sim.truth.stories))
         }

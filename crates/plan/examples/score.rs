@@ -2,13 +2,14 @@
 //!
 //! Run with `cargo run --release -p asbuilt-plan --example score -- office_3story 1500000 12
 //! [--no-poses] [--registration T,R] [--noise S] [--mobile] [--out DIR]`. With `--out` it writes
-//! `plan.geojson` (with samples) and `truth.json` there, for looking at.
+//! `plan.geojson` (with samples) and `truth.json` there, for looking at. BUILDING may also be
+//! `random_SEED` or `random30_SEED` (simulate/random.rs).
 
 use asbuilt_plan::cloud::Viewpoints;
 use asbuilt_plan::evaluate::{evaluate, EvaluateParams};
 use asbuilt_plan::io::geojson;
 use asbuilt_plan::progress::NoProgress;
-use asbuilt_plan::simulate::{simulate, BuildingKind, ScanOptions};
+use asbuilt_plan::simulate::{random, scan, BuildingKind, ScanOptions};
 use asbuilt_plan::Params;
 
 fn main() {
@@ -18,7 +19,9 @@ fn main() {
             .position(|a| a == name)
             .map(|i| args[i + 1].clone())
     };
-    let kind = BuildingKind::from_name(&args[0]).expect("a building name");
+    let building = random::from_name(&args[0])
+        .or_else(|| BuildingKind::from_name(&args[0]).map(BuildingKind::build))
+        .expect("a building name (or random_SEED, random30_SEED)");
     let mut options = ScanOptions {
         points: args
             .get(1)
@@ -42,7 +45,7 @@ fn main() {
     if let Some(n) = flag("--noise") {
         options.noise = n.parse().unwrap();
     }
-    let mut sim = simulate(kind, &options).expect("options");
+    let mut sim = scan(&building, &options).expect("options");
     if args.iter().any(|a| a == "--no-poses") {
         sim.cloud.viewpoints = Viewpoints::None;
         sim.cloud.scan.clear();
@@ -54,6 +57,7 @@ fn main() {
     let e = evaluate(&plan, &sim.truth, &EvaluateParams::default());
     print!("{}", e.summary());
     println!("plan {ms} ms; notes: {:?}", plan.notes);
+    println!("timings_ms: {:?}", plan.timings_ms);
     if let Some(dir) = flag("--out") {
         std::fs::create_dir_all(&dir).unwrap();
         let mut with_samples = plan.clone();

@@ -1,7 +1,8 @@
 //! Stage 6 (§3.5): RANSAC lines and circles fitted to the boundary samples, and the boundary
 //! rebuilt from the models with sharp corners.
 //!
-//! The steps: [`ransac`] finds the models, [`grow`] resets small components and grows models
+//! The steps: [`ransac`] finds the models (scoring each candidate only on the samples its
+//! inlier band crosses, through [`index`]), [`grow`] resets small components and grows models
 //! along the boundary, [`rebuild`] replaces each ring's runs with edges on their models, and
 //! [`simple`] finds where the result is not valid. Where rebuilt edges cross (a corner placed
 //! past a neighbour, the two faces of a thin wall fitted leaning into each other), the crossing
@@ -10,6 +11,7 @@
 
 pub mod circle;
 pub mod grow;
+pub mod index;
 pub mod line;
 pub mod model;
 pub mod ransac;

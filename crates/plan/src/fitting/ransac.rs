@@ -17,6 +17,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::fitting::circle::Circle;
+use crate::fitting::index::SampleGrid;
 use crate::fitting::line::Line;
 use crate::fitting::model::Model;
 use crate::fitting::{BoundarySamples, FittingParams};
@@ -38,9 +39,9 @@ pub fn find_models(samples: &BoundarySamples, params: &FittingParams) -> Consens
     let mut support = Vec::new();
     let min_cos = params.inlier_angle.cos();
     let window = params.min_inliers.max(3);
+    let mut pool = Pool::new(samples, params);
     loop {
-        let pool: Vec<usize> = (0..n).filter(|&i| assigned[i].is_none()).collect();
-        if pool.len() < params.min_inliers.max(3) {
+        if pool.ids.len() < params.min_inliers.max(3) {
             break;
         }
         let Some((model, inliers)) = best_model(samples, params, &pool, window, min_cos, &mut rng)
@@ -49,7 +50,10 @@ pub fn find_models(samples: &BoundarySamples, params: &FittingParams) -> Consens
         };
         for &i in &inliers {
             assigned[i] = Some(models.len());
+            pool.member[i] = false;
         }
+        // Kept in index order, as the random draws index into it.
+        pool.ids.retain(|&i| pool.member[i]);
         support.push(inliers.len());
         models.push(model);
     }
@@ -60,19 +64,45 @@ pub fn find_models(samples: &BoundarySamples, params: &FittingParams) -> Consens
     }
 }
 
-/// The unassigned samples in `pool` that `model` accepts.
+/// The unassigned samples, and a grid to find those near a model.
+struct Pool {
+    grid: SampleGrid,
+    /// Unassigned samples in index order.
+    ids: Vec<usize>,
+    member: Vec<bool>,
+}
+
+impl Pool {
+    /// Every sample unassigned.
+    fn new(samples: &BoundarySamples, params: &FittingParams) -> Pool {
+        let n = samples.pos.len();
+        Pool {
+            grid: SampleGrid::new(&samples.pos, 4.0 * params.inlier_distance),
+            ids: (0..n).collect(),
+            member: vec![true; n],
+        }
+    }
+}
+
+/// The unassigned samples that `model` accepts, in index order.
 fn inliers_of(
     samples: &BoundarySamples,
-    pool: &[usize],
+    pool: &Pool,
     model: &Model,
     max_dist: f64,
     min_cos: f64,
     side: f64,
 ) -> Vec<usize> {
-    pool.iter()
-        .copied()
-        .filter(|&i| model.accepts(samples.pos[i], samples.normal[i], max_dist, min_cos, side))
-        .collect()
+    let mut out = Vec::new();
+    pool.grid.near(model, max_dist, |i| {
+        if pool.member[i]
+            && model.accepts(samples.pos[i], samples.normal[i], max_dist, min_cos, side)
+        {
+            out.push(i);
+        }
+    });
+    out.sort_unstable();
+    out
 }
 
 /// The side of `model` that the samples `ids` face.
@@ -80,27 +110,27 @@ fn side(samples: &BoundarySamples, model: &Model, ids: &[usize]) -> f64 {
     model.side_of(ids.iter().map(|&i| (samples.pos[i], samples.normal[i])))
 }
 
-/// MSAC cost: squared distance for inliers, the squared threshold for everything else.
+/// MSAC cost: squared distance for inliers, the squared threshold for everything else. Only
+/// the samples near the model are read: the rest cost the threshold each.
 fn msac_cost(
     samples: &BoundarySamples,
-    pool: &[usize],
+    pool: &Pool,
     model: &Model,
     max_dist: f64,
     min_cos: f64,
     side: f64,
 ) -> (f64, usize) {
-    let mut cost = 0.0;
+    let mut inlier_cost = 0.0;
     let mut count = 0;
-    for &i in pool {
+    pool.grid.near(model, max_dist, |i| {
         let p = samples.pos[i];
-        if model.accepts(p, samples.normal[i], max_dist, min_cos, side) {
-            cost += model.distance(p).powi(2);
+        if pool.member[i] && model.accepts(p, samples.normal[i], max_dist, min_cos, side) {
+            inlier_cost += model.distance(p).powi(2);
             count += 1;
-        } else {
-            cost += max_dist * max_dist;
         }
-    }
-    (cost, count)
+    });
+    let outliers = (pool.ids.len() - count) as f64;
+    (inlier_cost + outliers * max_dist * max_dist, count)
 }
 
 /// `ids` split into the runs they form along the boundary (connected through boundary edges
@@ -157,22 +187,20 @@ fn neighbourhood(samples: &BoundarySamples, start: usize, hops: usize) -> Vec<us
 fn best_model(
     samples: &BoundarySamples,
     params: &FittingParams,
-    pool: &[usize],
+    pool: &Pool,
     window: usize,
     min_cos: f64,
     rng: &mut ChaCha8Rng,
 ) -> Option<(Model, Vec<usize>)> {
     let t = params.inlier_distance;
-    let mut in_pool = vec![false; samples.pos.len()];
-    for &i in pool {
-        in_pool[i] = true;
-    }
+    let in_pool = &pool.member;
+    let ids = &pool.ids;
     let mut best: Option<(f64, Model, f64)> = None;
     let mut needed = params.iterations;
     let mut it = 0;
     while it < needed.min(params.iterations) {
         it += 1;
-        let a = pool[rng.random_range(0..pool.len())];
+        let a = ids[rng.random_range(0..ids.len())];
         let near: Vec<usize> = neighbourhood(samples, a, window)
             .into_iter()
             .filter(|&j| in_pool[j])
@@ -181,7 +209,7 @@ fn best_model(
             if near.len() >= 2 {
                 near[rng.random_range(0..near.len())]
             } else {
-                pool[rng.random_range(0..pool.len())]
+                ids[rng.random_range(0..ids.len())]
             }
         };
         let (b, c) = (pick(rng), pick(rng));
@@ -209,7 +237,7 @@ fn best_model(
             best = Some((cost, m, side));
             // Adaptive stopping: the chance that a random first sample lies on this model is
             // about count / pool; stop once a better model would have been seen with 99%.
-            let w = count as f64 / pool.len() as f64;
+            let w = count as f64 / ids.len() as f64;
             if w < 1.0 {
                 needed = ((0.01f64).ln() / (1.0 - w).ln()).ceil().max(30.0) as usize;
             } else {
@@ -226,7 +254,7 @@ fn best_model(
 fn refine(
     samples: &BoundarySamples,
     params: &FittingParams,
-    pool: &[usize],
+    pool: &Pool,
     model: Model,
     min_cos: f64,
     side: f64,
@@ -378,14 +406,15 @@ mod tests {
             .map(|p| geom::normalize([-p[0], -p[1]]))
             .collect();
         let s = loop_samples(pos, normal);
-        let pool: Vec<usize> = (0..s.pos.len()).collect();
+        let all: Vec<usize> = (0..s.pos.len()).collect();
         let circle = Model::Circle(Circle {
             center: [0.0, 0.0],
             radius: r,
         });
         let refined = |params: &FittingParams| {
             let min_cos = params.inlier_angle.cos();
-            let side = side(&s, &circle, &pool);
+            let side = side(&s, &circle, &all);
+            let pool = Pool::new(&s, params);
             refine(&s, params, &pool, circle, min_cos, side).expect("a model")
         };
         let paper = FittingParams {

@@ -104,6 +104,23 @@ fn thickness(rng: &mut ChaCha8Rng) -> f64 {
     rng.random_range(WALL_THICKNESS.0..=WALL_THICKNESS.1)
 }
 
+/// A random building by name: `random_SEED` (8-20 m corridor, 6-20 rooms) or `random30_SEED`
+/// (a 50-56 m corridor, about 30 rooms), as `score` and `render_stages` take them.
+pub fn from_name(name: &str) -> Option<Building> {
+    let (kind, seed) = name.split_once('_')?;
+    let seed: u64 = seed.parse().ok()?;
+    let options = match kind {
+        "random" => RandomOptions::default(),
+        "random30" => RandomOptions {
+            corridor_length: (50.0, 56.0),
+        },
+        _ => return None,
+    };
+    let mut b = random_building(seed, &options);
+    b.name = name.to_string();
+    Some(b)
+}
+
 /// A random one-story building; the same seed gives the same building.
 pub fn random_building(seed: u64, options: &RandomOptions) -> Building {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
