@@ -83,7 +83,8 @@ impl SampleGrid {
             } else {
                 (self.ny, self.lo[1])
             };
-            if !(a <= b) || b < lo || a > lo + n_across as f64 * self.cell {
+            // NaN bounds (a degenerate model) visit nothing.
+            if a.is_nan() || b.is_nan() || a > b || b < lo || a > lo + n_across as f64 * self.cell {
                 return None;
             }
             let c0 = (((a - lo) / self.cell).floor().max(0.0) as usize).min(n_across - 1);
