@@ -72,6 +72,29 @@ impl SampleGrid {
         Some(j * self.nx + i)
     }
 
+    /// Calls `f` with every sample whose cell meets the bounding box of `pts`.
+    pub fn in_box(&self, pts: [P2; 3], mut f: impl FnMut(usize)) {
+        let lo = [0, 1].map(|k| pts.iter().map(|p| p[k]).fold(f64::INFINITY, f64::min));
+        let hi = [0, 1].map(|k| pts.iter().map(|p| p[k]).fold(f64::NEG_INFINITY, f64::max));
+        if !(lo[0].is_finite() && lo[1].is_finite() && hi[0].is_finite() && hi[1].is_finite()) {
+            return;
+        }
+        let cell = |v: f64, k: usize, n: usize| {
+            (((v - self.lo[k]) / self.cell).floor().max(0.0) as usize).min(n - 1)
+        };
+        if hi[0] < self.lo[0] || hi[1] < self.lo[1] {
+            return;
+        }
+        for j in cell(lo[1], 1, self.ny)..=cell(hi[1], 1, self.ny) {
+            for i in cell(lo[0], 0, self.nx)..=cell(hi[0], 0, self.nx) {
+                let c = j * self.nx + i;
+                for &id in &self.ids[self.start[c] as usize..self.start[c + 1] as usize] {
+                    f(id as usize);
+                }
+            }
+        }
+    }
+
     /// Calls `f` with every sample whose cell meets the band of half-width `t` around `model`
     /// (a superset of the samples within `t` of it).
     pub fn near(&self, model: &Model, t: f64, mut f: impl FnMut(usize)) {

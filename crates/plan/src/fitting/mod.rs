@@ -56,6 +56,11 @@ pub struct FittingParams {
     /// Two neighbouring models meet at their intersection only when it lies within this
     /// distance of both runs' end samples, metres (§3.5 "sharp corners"; the limit is ours).
     pub max_corner_distance: f64,
+    /// Beyond that distance, two runs still meet at their models' intersection when it lies
+    /// within this many metres and no wall sample lies in the corner it adds or cuts, metres.
+    /// Beyond the paper: a wall seen sparsely stops short of the corner, and the traced
+    /// boundary crosses the room diagonally there. 0 turns it off.
+    pub max_open_corner: f64,
     /// Arcs are densified so that chords stray at most this far from the circle, metres.
     pub arc_chord_error: f64,
     /// Random seed, so that runs repeat exactly.
@@ -75,6 +80,7 @@ impl Default for FittingParams {
             max_radius: 30.0,
             min_arc_sagitta: 0.03,
             max_corner_distance: 0.5,
+            max_open_corner: 3.0,
             arc_chord_error: 0.01,
             seed: 1,
         }
@@ -144,6 +150,9 @@ fn check_params(p: &FittingParams) -> Result<(), FittingError> {
     if p.max_corner_distance.is_nan() || p.max_corner_distance < 0.0 {
         return bad("max_corner_distance", "must not be negative");
     }
+    if p.max_open_corner.is_nan() || p.max_open_corner < 0.0 {
+        return bad("max_open_corner", "must not be negative");
+    }
     if !(p.arc_chord_error.is_finite() && p.arc_chord_error > 0.0) {
         return bad("arc_chord_error", "must be a positive number of metres");
     }
@@ -172,10 +181,15 @@ pub fn fit_walls(
         .iter()
         .map(|r| r.iter().map(|&s| assigned[s]).collect())
         .collect();
+    let mesh = &labeled.mesh;
+    let wall_samples = &mesh.vertices[..mesh.n_samples.min(mesh.vertices.len())];
+    let grid = index::SampleGrid::new(wall_samples, 4.0 * params.inlier_distance);
+    let margin = params.inlier_distance;
+    let empty = |u: P2, c: P2, v: P2| corner_is_empty(&grid, wall_samples, [u, c, v], margin);
     let rebuilt: Vec<rebuild::Rebuilt> = ring_pos
         .iter()
         .zip(&ring_assign)
-        .map(|(pos, a)| rebuild::rebuild_ring(pos, a, &models, params))
+        .map(|(pos, a)| rebuild::rebuild_ring(pos, a, &models, params, &empty))
         .collect();
     let points: Vec<Vec<P2>> = rebuilt.iter().map(|r| r.points.clone()).collect();
     let problems = simple::problems(&points, &exterior_of);
@@ -293,6 +307,30 @@ fn orient_normals(samples: &mut BoundarySamples, ring: &[usize]) {
         }
         samples.oriented[here] = true;
     }
+}
+
+/// True when no wall sample lies inside triangle `t` farther than `margin` from its sides: the
+/// corner a completed wall pair would add or cut holds nothing a scanner saw.
+fn corner_is_empty(grid: &index::SampleGrid, samples: &[P2], t: [P2; 3], margin: f64) -> bool {
+    let area2 = geom::cross(geom::sub(t[1], t[0]), geom::sub(t[2], t[0]));
+    if !area2.is_finite() || area2 == 0.0 {
+        return true;
+    }
+    let sign = area2.signum();
+    let mut empty = true;
+    grid.in_box(t, |i| {
+        let p = samples[i];
+        // Signed distances to the three sides, positive inside.
+        let inside = (0..3).all(|k| {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            let len = geom::dist(a, b).max(1e-12);
+            sign * geom::cross(geom::sub(b, a), geom::sub(p, a)) / len > margin
+        });
+        if inside {
+            empty = false;
+        }
+    });
+    empty
 }
 
 /// Where the first few problems are, for a note: "(x, y), (x, y), …".

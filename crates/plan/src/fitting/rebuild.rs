@@ -70,13 +70,28 @@ fn arc_points(
     pts
 }
 
+/// Whether the region between two runs and their models' meeting point holds no wall sample:
+/// `empty(u, c, v)` for the triangle from the end `u` of one run through the corner `c` to the
+/// start `v` of the next.
+pub type EmptyCorner<'a> = &'a dyn Fn(P2, P2, P2) -> bool;
+
+/// The way a run travels, from its first sample to its last (zero for a single sample).
+fn run_direction(pos: &[P2], piece: &Piece) -> P2 {
+    let (first, last) = (piece.positions[0], *piece.positions.last().unwrap_or(&0));
+    geom::sub(pos[last], pos[first])
+}
+
 /// Rebuilds one ring. `pos[i]` is the traced position of ring vertex `i` and `assigned[i]` its
-/// model. A ring whose samples all lie on one line is left as traced.
+/// model. A ring whose samples all lie on one line is left as traced. Two runs whose models meet
+/// farther than `max_corner_distance` from their ends still meet there when the meeting point
+/// is within `max_open_corner` and `empty` says no sample lies in the corner they would add or
+/// cut: a sparsely seen wall whose last samples stop short of the corner.
 pub fn rebuild_ring(
     pos: &[P2],
     assigned: &[Option<usize>],
     models: &[Model],
     params: &FittingParams,
+    empty: EmptyCorner<'_>,
 ) -> Rebuilt {
     let m = pos.len();
     let traced = || Rebuilt {
@@ -152,14 +167,24 @@ pub fn rebuild_ring(
             }
             let (u, v) = (pos[*p.positions.last()?], pos[q.positions[0]]);
             let mid = geom::scale(geom::add(u, v), 0.5);
-            models[a]
-                .intersections(&models[b])
-                .into_iter()
-                .filter(|c| {
-                    geom::dist(*c, u) <= params.max_corner_distance
-                        && geom::dist(*c, v) <= params.max_corner_distance
+            let meets = models[a].intersections(&models[b]);
+            let nearest = |limit: f64, ok: &dyn Fn(P2) -> bool| {
+                meets
+                    .iter()
+                    .copied()
+                    .filter(|&c| geom::dist(c, u) <= limit && geom::dist(c, v) <= limit && ok(c))
+                    .min_by(|x, y| geom::dist(*x, mid).total_cmp(&geom::dist(*y, mid)))
+            };
+            nearest(params.max_corner_distance, &|_| true).or_else(|| {
+                // An open corner: the runs must run on into it (no run turns back), and it
+                // must add or cut only empty floor.
+                let (pu, qv) = (run_direction(pos, p), run_direction(pos, q));
+                nearest(params.max_open_corner, &|c| {
+                    geom::dot(geom::sub(c, u), pu) > 0.0
+                        && geom::dot(geom::sub(v, c), qv) > 0.0
+                        && empty(u, c, v)
                 })
-                .min_by(|x, y| geom::dist(*x, mid).total_cmp(&geom::dist(*y, mid)))
+            })
         })
         .collect();
     let mut points: Vec<P2> = Vec::new();
@@ -237,7 +262,13 @@ mod tests {
             dir: [0.0, 1.0],
         });
         let assigned = [Some(0), Some(0), Some(0), Some(1), Some(1), None];
-        let r = rebuild_ring(&pos, &assigned, &[a, b], &FittingParams::default());
+        let r = rebuild_ring(
+            &pos,
+            &assigned,
+            &[a, b],
+            &FittingParams::default(),
+            &|_, _, _| true,
+        );
         assert_eq!(
             r.points,
             vec![[0.0, 0.0], [1.0, 0.0], [1.0, 0.5], [1.0, 1.0]]

@@ -406,3 +406,57 @@ fn rooms_joined_by_a_door_keep_the_jambs() {
     assert!(jambs < 0.02);
     assert!((area - geom::ring_signed_area(&plan)).abs() < 0.05);
 }
+
+/// A 4 × 3 m room whose top wall is seen only from x = 1.6 on and whose left wall only up to
+/// y = 1.6: the labeling cuts the top-left corner with the diagonal between the last samples.
+/// `extra` adds samples (with the labels unchanged).
+fn room_with_an_unseen_corner(extra: &[P2], params: &FittingParams) -> FittedStory {
+    let room = room();
+    let (pts, normals) = ring_samples(&room, 0.05);
+    let unseen = |p: &P2| (p[1] > 2.99 && p[0] < 1.6) || (p[0] < 0.01 && p[1] > 1.6);
+    let (mut pts, mut normals): (Vec<P2>, Vec<P2>) = pts
+        .into_iter()
+        .zip(normals)
+        .filter(|(p, _)| !unseen(p))
+        .unzip();
+    pts.extend(extra);
+    normals.extend(extra.iter().map(|_| [1.0, 0.0]));
+    let cut = vec![[0.0, 0.0], [4.0, 0.0], [4.0, 3.0], [1.6, 3.0], [0.0, 1.6]];
+    let mut l = label_by_rings(Mesh::build(&pts, &normals).unwrap(), &[cut]);
+    clean_labels(&mut l, &CleanupParams::default());
+    let b = trace_boundary(&l).unwrap();
+    let f = fit_walls(&l, &b, params).unwrap();
+    assert_valid(&f);
+    f
+}
+
+#[test]
+fn a_corner_left_unseen_is_completed_where_the_walls_meet() {
+    let f = room_with_an_unseen_corner(&[], &FittingParams::default());
+    assert_eq!(f.polygons.len(), 1);
+    let ext = &f.polygons[0].exterior;
+    assert!(corner_error(&room(), ext) < 0.01, "{ext:?}");
+    let area = geom::ring_signed_area(ext);
+    assert!((area - 12.0).abs() < 0.02, "{area}");
+    // The paper's rule (corners only near both runs' ends) keeps the diagonal.
+    let paper = FittingParams {
+        max_open_corner: 0.0,
+        ..Default::default()
+    };
+    let f = room_with_an_unseen_corner(&[], &paper);
+    let area = geom::ring_signed_area(&f.polygons[0].exterior);
+    // About 1.6 × 1.4 / 2 m² lost to the diagonal between the last samples.
+    assert!(area < 11.0, "{area}");
+}
+
+#[test]
+fn a_corner_holding_samples_is_not_completed() {
+    // Something seen inside the cut-off corner (a column's face, say): it is not empty floor,
+    // so the walls do not meet over it.
+    let f = room_with_an_unseen_corner(&[[0.3, 2.7], [0.35, 2.7]], &FittingParams::default());
+    let ext = &f.polygons[0].exterior;
+    assert!(
+        !ext.iter().any(|p| geom::dist(*p, [0.0, 3.0]) < 0.05),
+        "{ext:?}"
+    );
+}
