@@ -515,6 +515,7 @@ mod tests {
 
 #[cfg(test)]
 mod random_tests {
+    use crate::cancel::Cancel;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
@@ -585,7 +586,8 @@ mod random_tests {
                 inlier_angle: 1.5,
                 ..Default::default()
             };
-            let f = fit_walls(&l, &b, &params).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+            let f = fit_walls(&l, &b, &params, &Cancel::never())
+                .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
             assert_eq!(f.polygons.len(), b.polygons.len());
             let mut rings = Vec::new();
             let mut ext = Vec::new();
