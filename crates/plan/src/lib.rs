@@ -33,6 +33,7 @@ pub mod simulate;
 pub mod smoothing;
 pub mod stories;
 pub mod streaming;
+pub mod validity;
 
 pub use cancel::{Cancel, Cancelled};
 pub use cloud::PointCloud;

@@ -182,10 +182,8 @@ impl Params {
         if let Err((name, why)) = self.cleanup.check() {
             return Err(named("cleanup", name, why));
         }
-        match self.fitting.check() {
-            Err(FittingError::BadParam { name, why }) => return Err(named("fitting", name, why)),
-            Err(e) => return Err(named("fitting", "?", e.to_string())),
-            Ok(()) => {}
+        if let Err(FittingError::BadParam { name, why }) = self.fitting.check() {
+            return Err(named("fitting", name, why));
         }
         Ok(())
     }

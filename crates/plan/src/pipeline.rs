@@ -14,6 +14,7 @@ use crate::progress::{Progress, Stage};
 use crate::samples::{check_params, sample_walls_in, SamplesError, StoryBounds, WallSamples};
 use crate::smoothing::{smooth_samples, SmoothingError};
 use crate::stories::{split_cloud_stories, StoriesError, Story};
+use crate::validity::{make_valid, Grid};
 
 /// Why a plan could not be made. Each variant names the stage.
 #[derive(Debug, thiserror::Error)]
@@ -82,6 +83,8 @@ impl PlanError {
 
 /// The `timings_ms` key of the Delaunay triangulation, the first part of labeling (§3.3).
 pub const TRIANGULATE: &str = "triangulate";
+/// The `timings_ms` key of the last step: every polygon made OGC-valid on the output grid.
+pub const VALIDITY: &str = "validity";
 
 /// Accumulates per-stage wall time in pipeline order.
 #[derive(Default)]
@@ -189,9 +192,11 @@ pub(crate) fn plan_stories(
     let mut failures = Vec::new();
     for (i, story) in stories.iter().enumerate() {
         let at = |k: f64| (i as f64 + k) / stories.len() as f64;
+        let grid = Grid::world(cloud.origin);
         match plan_story(
             story,
             params,
+            &grid,
             progress,
             &cancel,
             &mut timings,
@@ -249,6 +254,7 @@ pub(crate) fn plan_stories(
 fn plan_story(
     story: &Story,
     params: &Params,
+    grid: &Grid,
     progress: &mut dyn Progress,
     cancel: &Cancel,
     timings: &mut Timings,
@@ -290,13 +296,19 @@ fn plan_story(
     let fitted = timings.time(Stage::Fitting, || {
         fit_walls(&labeled, &boundary, &params.fitting, cancel)
     })?;
+    let start = Instant::now();
+    let traced = boundary.to_polygons(&labeled.mesh);
+    let valid = make_valid(&fitted.polygons, &traced, grid);
+    timings.add(VALIDITY, start.elapsed().as_secs_f64() * 1e3);
+    let mut notes = fitted.notes;
+    notes.extend(valid.notes);
     let plan = StoryPlan {
         level: story.level,
         floor_z: story.floor_z,
         ceiling_z: story.ceiling_z,
-        polygons: fitted.polygons,
+        polygons: valid.polygons,
         walls: fitted.walls,
         samples: samples.samples.iter().map(|s| s.pos).collect(),
     };
-    Ok((plan, samples.min_points_used, fitted.notes))
+    Ok((plan, samples.min_points_used, notes))
 }

@@ -3,8 +3,10 @@
 //!
 //! The steps: [`ransac`] finds the models, [`grow`] resets small components and grows models
 //! along the boundary, [`rebuild`] replaces each ring's runs with edges on their models, and
-//! [`simple`] checks that the result is valid. Where rebuilt edges cross, the models involved
-//! are undone locally (the traced boundary is kept there) and the repair is noted.
+//! [`simple`] finds where the result is not valid. Where rebuilt edges cross (a corner placed
+//! past a neighbour, the two faces of a thin wall fitted leaning into each other), the crossing
+//! becomes a corner and the region the walls enclose counter-clockwise is kept
+//! ([`crate::validity::resolve`]); the repair is noted. The traced staircase is never put back.
 
 pub mod circle;
 pub mod grow;
@@ -24,6 +26,7 @@ use crate::geom::{self, P2};
 use crate::labeling::LabeledMesh;
 use crate::params::{within, ParamRange};
 use crate::plan::{Polygon, Wall};
+use crate::validity::{self, Grid};
 
 /// Parameters of [`fit_walls`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -103,7 +106,7 @@ impl Default for FittingParams {
 pub struct FittedStory {
     pub polygons: Vec<Polygon>,
     pub walls: Vec<Wall>,
-    /// Repairs worth telling the user about (models undone where rebuilt edges crossed).
+    /// Repairs worth telling the user about (crossings of rebuilt walls resolved).
     pub notes: Vec<String>,
 }
 
@@ -112,8 +115,6 @@ pub struct FittedStory {
 pub enum FittingError {
     #[error("invalid fitting parameter `{name}`: {why}")]
     BadParam { name: &'static str, why: String },
-    #[error("fitting broke the plan: {0}")]
-    Invalid(String),
     #[error(transparent)]
     Cancelled(#[from] Cancelled),
 }
@@ -177,37 +178,41 @@ pub fn fit_walls(
         .iter()
         .map(|r| r.iter().map(|&s| assigned[s]).collect())
         .collect();
-    let (rebuilt, undone) = rebuild_valid(
-        &ring_pos,
-        ring_assign,
-        &exterior_of,
-        &models,
-        params,
-        cancel,
-    )?;
-    let mut notes = Vec::new();
-    if !undone.is_empty() {
-        let at: Vec<String> = undone
-            .iter()
-            .take(5)
-            .map(|p| format!("({:.2}, {:.2})", p[0], p[1]))
-            .collect();
-        notes.push(format!(
-            "fitting: {} wall piece(s) kept as traced because their rebuilt edges crossed, near local {}{}",
-            undone.len(),
-            at.join(", "),
-            if undone.len() > 5 { ", …" } else { "" }
-        ));
-    }
+    let rebuilt: Vec<rebuild::Rebuilt> = ring_pos
+        .iter()
+        .zip(&ring_assign)
+        .map(|(pos, a)| rebuild::rebuild_ring(pos, a, &models, params))
+        .collect();
+    let points: Vec<Vec<P2>> = rebuilt.iter().map(|r| r.points.clone()).collect();
+    let problems = simple::problems(&points, &exterior_of);
     let mut polygons: Vec<Polygon> = Vec::new();
     for (r, ext) in exterior_of.iter().enumerate() {
-        let points = rebuilt[r].points.clone();
+        let points = points[r].clone();
         match (ext, polygons.last_mut()) {
             (Some(_), Some(p)) => p.holes.push(points),
             _ => polygons.push(Polygon {
                 exterior: points,
                 holes: Vec::new(),
             }),
+        }
+    }
+    let mut notes = Vec::new();
+    if !problems.is_empty() {
+        // Where rebuilt walls cross (or a ring folds over), the crossing points become corners
+        // and what the walls enclose counter-clockwise stays inside.
+        let at = problem_places(&problems, &points);
+        match validity::resolve(&polygons, &Grid::local()) {
+            Ok(resolved) => {
+                polygons = resolved;
+                notes.push(format!(
+                    "fitting: {} crossing(s) or fold(s) of fitted walls resolved where they cross, near local {at}",
+                    problems.len()
+                ));
+            }
+            Err(why) => notes.push(format!(
+                "fitting: {} crossing(s) of fitted walls near local {at} could not be resolved ({why})",
+                problems.len()
+            )),
         }
     }
     let walls = rebuilt.into_iter().flat_map(|r| r.walls).collect();
@@ -296,81 +301,26 @@ fn orient_normals(samples: &mut BoundarySamples, ring: &[usize]) {
     }
 }
 
-/// Rebuilds every ring and, while the result is invalid, undoes the models of the pieces
-/// involved in each problem (per ring, so a model shared by other rooms survives there) and
-/// rebuilds again. Each round undoes at least one piece, so this ends; if a problem involves no
-/// model at all the traced boundary itself is invalid, which is an error. Returns the rings and
-/// the centre of every piece undone.
-fn rebuild_valid(
-    ring_pos: &[Vec<P2>],
-    mut ring_assign: Vec<Vec<Option<usize>>>,
-    exterior_of: &[Option<usize>],
-    models: &[model::Model],
-    params: &FittingParams,
-    cancel: &Cancel,
-) -> Result<(Vec<rebuild::Rebuilt>, Vec<P2>), FittingError> {
-    let mut undone: Vec<P2> = Vec::new();
-    loop {
-        // Each round rebuilds and checks every ring, and may undo a single piece.
-        cancel.check()?;
-        let rebuilt: Vec<rebuild::Rebuilt> = ring_pos
-            .iter()
-            .zip(&ring_assign)
-            .map(|(pos, a)| rebuild::rebuild_ring(pos, a, models, params))
-            .collect();
-        let points: Vec<Vec<P2>> = rebuilt.iter().map(|r| r.points.clone()).collect();
-        let problems = simple::problems(&points, exterior_of);
-        if problems.is_empty() {
-            return Ok((rebuilt, undone));
-        }
-        let whole = |r: usize| (0..rebuilt[r].pieces.len()).map(move |k| (r, k));
-        let mut to_undo: Vec<(usize, usize)> = Vec::new();
-        for p in &problems {
-            match *p {
-                simple::Problem::Crossing(s, t) => {
-                    for (r, i) in [s, t] {
-                        // A segment belongs to the piece of its end point (a shared corner is
-                        // emitted by the piece before); a link from a run to a traced vertex
-                        // belongs to the run.
-                        let (of, pieces) = (&rebuilt[r].piece_of_point, &rebuilt[r].pieces);
-                        let end = of[(i + 1) % of.len()];
-                        let owner = if pieces[end].model.is_some() {
-                            end
-                        } else {
-                            of[i]
-                        };
-                        to_undo.push((r, owner));
-                    }
-                }
-                simple::Problem::BadRing(r) => to_undo.extend(whole(r)),
-                simple::Problem::HoleOutside { hole, exterior } => {
-                    to_undo.extend(whole(hole).chain(whole(exterior)));
-                }
-            }
-        }
-        to_undo.sort_unstable();
-        to_undo.dedup();
-        let before = undone.len();
-        for (r, k) in to_undo {
-            let piece = &rebuilt[r].pieces[k];
-            if piece.model.is_none() {
-                continue;
-            }
-            for &i in &piece.positions {
-                ring_assign[r][i] = None;
-            }
-            let n = piece.positions.len() as f64;
-            undone.push(piece.positions.iter().fold([0.0, 0.0], |acc, &i| {
-                geom::add(acc, geom::scale(ring_pos[r][i], 1.0 / n))
-            }));
-        }
-        if undone.len() == before {
-            return Err(FittingError::Invalid(format!(
-                "the traced boundary itself is not valid: {:?}",
-                problems[0]
-            )));
-        }
-    }
+/// Where the first few problems are, for a note: "(x, y), (x, y), …".
+fn problem_places(problems: &[simple::Problem], rings: &[Vec<P2>]) -> String {
+    let at: Vec<String> = problems
+        .iter()
+        .take(5)
+        .map(|p| {
+            let (r, i) = match *p {
+                simple::Problem::Crossing(s, _) => s,
+                simple::Problem::BadRing(r) => (r, 0),
+                simple::Problem::HoleOutside { hole, .. } => (hole, 0),
+            };
+            let q = rings[r].get(i).copied().unwrap_or([0.0, 0.0]);
+            format!("({:.2}, {:.2})", q[0], q[1])
+        })
+        .collect();
+    format!(
+        "{}{}",
+        at.join(", "),
+        if problems.len() > 5 { ", …" } else { "" }
+    )
 }
 
 #[cfg(test)]
