@@ -143,6 +143,28 @@ impl Params {
         Ok(())
     }
 
+    /// Checks one `section.name=value` override on its own, before anything else arrives: the
+    /// name is known, the value parses, and a number lies within its range. Rules between
+    /// parameters wait for [`Params::check`].
+    pub fn check_override(assignment: &str) -> Result<(), ParamsError> {
+        let mut p = Params::default();
+        p.set(assignment)?;
+        let key = assignment.split_once('=').map_or("", |(k, _)| k.trim());
+        let Some((section, name)) = key.split_once('.') else {
+            return Ok(());
+        };
+        let range = ranges()
+            .into_iter()
+            .find(|(s, r)| *s == section && r.name == name);
+        if let (Some((_, r)), Some(v)) = (range, p.to_json()[section][name].as_f64()) {
+            r.check(v).map_err(|why| ParamsError::Invalid {
+                name: key.into(),
+                why,
+            })?;
+        }
+        Ok(())
+    }
+
     /// Checks every stage's values before a run, so a bad value is refused up front (the service
     /// answers 422) rather than failing the run later. The error names `section.name`.
     pub fn check(&self) -> Result<(), ParamsError> {
@@ -323,6 +345,22 @@ mod tests {
         ] {
             assert!(documented.contains(&key.to_string()), "{key} has no range");
         }
+    }
+
+    #[test]
+    fn a_single_override_is_checked_against_its_range() {
+        assert_eq!(Params::check_override("samples.cell_size=0.1"), Ok(()));
+        assert!(matches!(
+            Params::check_override("fitting.iterations=1000000000000"),
+            Err(ParamsError::Invalid { name, .. }) if name == "fitting.iterations"
+        ));
+        assert!(matches!(
+            Params::check_override("samples.nope=1"),
+            Err(ParamsError::Unknown(_))
+        ));
+        // A rule between two parameters waits for the whole set.
+        assert_eq!(Params::check_override("samples.min_filled_bins=20"), Ok(()));
+        assert_eq!(Params::check_override("emit_samples=true"), Ok(()));
     }
 
     #[test]

@@ -428,7 +428,7 @@ struct Scan<'a> {
 }
 
 /// Cells tested between cancellation checks: a few milliseconds at the densest.
-const CELLS_PER_CHECK: usize = 256;
+const CELLS_PER_CHECK: usize = 32;
 
 impl Scan<'_> {
     fn row(&self, j: usize, s: &mut Scratch) -> Row {
