@@ -4,6 +4,8 @@
 //! - [`buildings`]: the buildings (walls, doors with lintels, columns, tables) and their truth.
 //! - [`scanner`]: analytic ray casting against wall segments and arcs, floors and ceilings.
 //! - [`truth`]: the ground truth per story, exact lines and arcs.
+//! - [`random`]: random buildings (rooms, corridors, closets, columns, bays, any rotation) for
+//!   property tests, scanned with [`scan`].
 //! - [`simulate`] scans a building: points, scan indices, poses or a trajectory, all in a local
 //!   frame whose origin is the requested world offset.
 //!
@@ -11,6 +13,7 @@
 //! the result does not depend on how rayon schedules the blocks.
 
 pub mod buildings;
+pub mod random;
 pub mod rects;
 pub mod scanner;
 pub mod truth;
@@ -87,12 +90,16 @@ pub struct Simulation {
 
 /// Builds `kind` and scans it.
 pub fn simulate(kind: BuildingKind, options: &ScanOptions) -> Result<Simulation, SimulateError> {
+    scan(&kind.build(), options)
+}
+
+/// Scans any building, named or not.
+pub fn scan(building: &Building, options: &ScanOptions) -> Result<Simulation, SimulateError> {
     check(options)?;
-    let building = kind.build();
     let mut cloud = if options.mobile {
-        scan_mobile(&building, options)
+        scan_mobile(building, options)
     } else {
-        scan_static(&building, options)
+        scan_static(building, options)
     };
     cloud.origin = options.offset;
     cloud.source = SourceInfo {
