@@ -7,6 +7,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::Context;
+use axum::serve::ListenerExt;
 use tokio::net::TcpListener;
 use tokio::sync::{broadcast, Notify};
 use tokio::task::JoinHandle;
@@ -14,7 +15,9 @@ use tokio_util::sync::CancellationToken;
 
 use crate::auth::Keys;
 use crate::config::Config;
+use crate::limits::Limits;
 use crate::metrics::Metrics;
+use crate::net::GuardedListener;
 use crate::queue::postgres::PgJobStore;
 use crate::queue::sqlite::SqliteJobStore;
 use crate::queue::{JobId, JobStore};
@@ -29,6 +32,8 @@ pub struct App {
     pub store: Arc<dyn JobStore>,
     pub blobs: Arc<dyn BlobStore>,
     pub keys: Keys,
+    /// Per-tenant request rates and the brake on unknown keys.
+    pub limits: Limits,
     pub metrics: Metrics,
     /// Job ids whose state changed (SSE streams listen).
     pub changes: broadcast::Sender<JobId>,
@@ -158,11 +163,13 @@ pub async fn start(mut config: Config, pipeline: Arc<dyn Pipeline>) -> anyhow::R
     if config.serve_api && config.dev_mode() {
         tracing::warn!("no API keys configured: development mode, every caller is tenant `dev`");
     }
+    let keys = config.all_keys().map_err(|e| anyhow::anyhow!(e))?;
     let store = start_store(&config).await?;
     let blobs = open_blobs(&config).await?;
     let shutdown = CancellationToken::new();
     let state = AppState(Arc::new(App {
-        keys: Keys::new(&config.api_keys),
+        keys: Keys::new(&keys, config.dev_mode()),
+        limits: Limits::new(config.rate_limit, config.rate_burst),
         metrics: Metrics::default(),
         changes: broadcast::channel(1024).0,
         queued: Notify::new(),
@@ -176,6 +183,24 @@ pub async fn start(mut config: Config, pipeline: Arc<dyn Pipeline>) -> anyhow::R
         .with_context(|| format!("binding {}", state.config.listen))?;
     let addr = listener.local_addr()?;
     tracing::info!("listening on http://{addr}");
+    let idle = Duration::from_secs(state.config.idle_timeout_secs);
+    let metrics_server = match state.config.metrics_listen {
+        Some(at) => {
+            let l = TcpListener::bind(at)
+                .await
+                .with_context(|| format!("binding {at} (metrics)"))?;
+            tracing::info!("metrics on http://{}/metrics", l.local_addr()?);
+            let app = crate::router::metrics_only(state.clone());
+            let stop = state.shutdown.clone();
+            Some(tokio::spawn(async move {
+                let _ = axum::serve(GuardedListener::new(l, idle), app)
+                    .with_graceful_shutdown(async move { stop.cancelled().await })
+                    .await;
+            }))
+        }
+        None => None,
+    };
+    let keys_watch = tokio::spawn(crate::auth::watch_keys_file(state.clone(), KEYS_FILE_CHECK));
 
     let workers = Arc::new(Workers {
         state: state.clone(),
@@ -199,6 +224,9 @@ pub async fn start(mut config: Config, pipeline: Arc<dyn Pipeline>) -> anyhow::R
     let task = tokio::spawn(async move {
         let stop = server_state.shutdown.clone();
         let graceful = stop.clone();
+        // The client's address reaches handlers (the brake on unknown keys).
+        let listener = GuardedListener::new(listener, idle).tap_io(|_| {});
+        let app = app.into_make_service_with_connect_info::<SocketAddr>();
         let mut server = tokio::spawn(async move {
             axum::serve(listener, app)
                 .with_graceful_shutdown(async move {
@@ -230,9 +258,29 @@ pub async fn start(mut config: Config, pipeline: Arc<dyn Pipeline>) -> anyhow::R
         if !pending.is_empty() {
             tracing::warn!("shutdown timeout: handing running jobs back to the queue");
             workers.hand_back.cancel();
-            for task in pending {
-                let _ = task.await;
+            // Each worker stops its pipeline and hands its job back within a moment; one
+            // whose pipeline is stuck is left behind, and its job handed back below.
+            let last = tokio::time::Instant::now() + HAND_BACK_WAIT;
+            for mut task in pending {
+                if tokio::time::timeout_at(last, &mut task).await.is_err() {
+                    task.abort();
+                }
             }
+        }
+        // Whatever this process still holds goes back to the queue, once: a job a worker
+        // released is no longer ours, and this one statement cannot hand a job back twice.
+        match server_state
+            .store
+            .release_all(&format!("{}/", workers.owner))
+            .await
+        {
+            Ok(ids) => {
+                for id in ids {
+                    tracing::warn!(job = %id, "job handed back to the queue at shutdown");
+                    server_state.changed(id);
+                }
+            }
+            Err(e) => tracing::error!(error = %e, "handing jobs back at shutdown"),
         }
         let result = match ended {
             Some(r) => r,
@@ -248,6 +296,10 @@ pub async fn start(mut config: Config, pipeline: Arc<dyn Pipeline>) -> anyhow::R
         };
         sweeper_stop.cancel();
         let _ = sweeper.await;
+        keys_watch.abort();
+        if let Some(m) = metrics_server {
+            m.abort();
+        }
         tracing::info!("stopped");
         result.context("server task")?.context("serving HTTP")
     });
@@ -258,6 +310,13 @@ pub async fn start(mut config: Config, pipeline: Arc<dyn Pipeline>) -> anyhow::R
         task,
     })
 }
+
+/// How often the keys file is checked for changes.
+const KEYS_FILE_CHECK: Duration = Duration::from_secs(2);
+
+/// How long shutdown waits, after its deadline, for workers to stop their pipelines and hand
+/// their jobs back, before it hands them back itself.
+const HAND_BACK_WAIT: Duration = Duration::from_millis(600);
 
 /// Resolves on SIGTERM or Ctrl-C.
 async fn termination() {

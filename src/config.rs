@@ -52,8 +52,31 @@ pub struct Config {
     pub max_attempts: u32,
     /// How long shutdown waits for running jobs before handing them back to the queue, seconds.
     pub shutdown_timeout_secs: u64,
-    /// API keys as `tenant:key`. None: development mode (loopback only, one tenant `dev`).
+    /// API keys as `tenant:key`. None (and no keys file): development mode (loopback only, one
+    /// tenant `dev`).
     pub api_keys: Vec<String>,
+    /// A file of `tenant:key` lines (`#` comments), re-read when it changes: keys are added
+    /// and revoked without a restart.
+    pub api_keys_file: Option<PathBuf>,
+    /// The key `/metrics` wants on the API listener (`Authorization: Bearer`). Without it (and
+    /// with API keys), `/metrics` is served only on `metrics_listen`.
+    pub metrics_key: Option<String>,
+    /// A second listener serving only `/metrics`, without a key (a private scrape network).
+    pub metrics_listen: Option<SocketAddr>,
+    /// Requests per second each tenant may make on average (0: no limit).
+    pub rate_limit: f64,
+    /// Requests a tenant may make at once above the average.
+    pub rate_burst: u32,
+    /// Queued jobs a tenant may have at once (0: no cap).
+    pub max_queued: u32,
+    /// An upload that sends nothing for this long is dropped, seconds.
+    pub upload_idle_timeout_secs: u64,
+    /// An upload slower than this on average (after its first `upload_idle_timeout_secs`) is
+    /// dropped, bytes per second (0: no minimum).
+    pub upload_min_rate: u64,
+    /// A connection with no traffic either way for this long is closed, seconds (slow or
+    /// silent clients, half-sent headers).
+    pub idle_timeout_secs: u64,
     /// Testing aid: replace the pipeline with a synthetic one taking this many ms per stage.
     #[serde(skip)]
     pub fake_pipeline_ms: Option<u64>,
@@ -89,6 +112,15 @@ impl Default for Config {
             max_attempts: 3,
             shutdown_timeout_secs: 30,
             api_keys: Vec::new(),
+            api_keys_file: None,
+            metrics_key: None,
+            metrics_listen: None,
+            rate_limit: 20.0,
+            rate_burst: 40,
+            max_queued: 100,
+            upload_idle_timeout_secs: 30,
+            upload_min_rate: 4096,
+            idle_timeout_secs: 120,
             fake_pipeline_ms: None,
             fake_pipeline_spin: false,
             serve_api: true,
@@ -163,6 +195,33 @@ pub struct ConfigArgs {
         value_delimiter = ','
     )]
     pub api_keys: Vec<String>,
+    /// A file of `tenant:key` lines, re-read when it changes (keys added and revoked live).
+    #[arg(long, env = "ASBUILT_API_KEYS_FILE", value_name = "FILE")]
+    pub api_keys_file: Option<PathBuf>,
+    /// The key /metrics wants on the API port; without it, /metrics is only on --metrics-listen.
+    #[arg(long, env = "ASBUILT_METRICS_KEY", value_name = "KEY")]
+    pub metrics_key: Option<String>,
+    /// Also serve /metrics, without a key, on this address (a private network).
+    #[arg(long, env = "ASBUILT_METRICS_LISTEN", value_name = "ADDR")]
+    pub metrics_listen: Option<SocketAddr>,
+    /// Requests per second per tenant, on average (0: no limit) [default: 20].
+    #[arg(long, env = "ASBUILT_RATE_LIMIT", value_name = "PER_SEC")]
+    pub rate_limit: Option<f64>,
+    /// Requests per tenant allowed at once above the average [default: 40].
+    #[arg(long, env = "ASBUILT_RATE_BURST", value_name = "N")]
+    pub rate_burst: Option<u32>,
+    /// Queued jobs per tenant (0: no cap) [default: 100].
+    #[arg(long, env = "ASBUILT_MAX_QUEUED", value_name = "N")]
+    pub max_queued: Option<u32>,
+    /// Drop an upload that sends nothing for this long, seconds [default: 30].
+    #[arg(long, env = "ASBUILT_UPLOAD_IDLE_TIMEOUT", value_name = "SECS")]
+    pub upload_idle_timeout: Option<u64>,
+    /// Drop an upload slower than this on average, bytes/s with K/M/G (0: none) [default: 4K].
+    #[arg(long, env = "ASBUILT_UPLOAD_MIN_RATE", value_name = "RATE", value_parser = parse_size)]
+    pub upload_min_rate: Option<u64>,
+    /// Close a connection with no traffic for this long, seconds [default: 120].
+    #[arg(long, env = "ASBUILT_IDLE_TIMEOUT", value_name = "SECS")]
+    pub idle_timeout: Option<u64>,
     /// Testing aid: a synthetic pipeline taking MS per stage instead of the real one.
     #[arg(long, env = "ASBUILT_FAKE_PIPELINE_MS", value_name = "MS", hide = true)]
     pub fake_pipeline_ms: Option<u64>,
@@ -188,7 +247,18 @@ impl ConfigArgs {
             max_points => max_points, job_timeout => job_timeout_secs,
             retention_hours => retention_hours, lease => lease_secs,
             max_attempts => max_attempts, shutdown_timeout => shutdown_timeout_secs,
-            presign => presign_secs);
+            presign => presign_secs, rate_limit => rate_limit, rate_burst => rate_burst,
+            max_queued => max_queued, upload_idle_timeout => upload_idle_timeout_secs,
+            upload_min_rate => upload_min_rate, idle_timeout => idle_timeout_secs);
+        if self.api_keys_file.is_some() {
+            c.api_keys_file = self.api_keys_file.clone();
+        }
+        if self.metrics_key.is_some() {
+            c.metrics_key = self.metrics_key.clone();
+        }
+        if self.metrics_listen.is_some() {
+            c.metrics_listen = self.metrics_listen;
+        }
         for (flag, field) in [
             (&self.storage, &mut c.storage),
             (&self.s3_endpoint, &mut c.s3_endpoint),
@@ -238,16 +308,42 @@ impl Config {
         if self.job_timeout_secs == 0 {
             bail!("job_timeout_secs must be at least 1");
         }
-        for k in &self.api_keys {
-            match k.split_once(':') {
-                Some((t, key)) if !t.is_empty() && key.len() >= 8 => {}
-                _ => bail!(
-                    "api key `{}`: expected TENANT:KEY with a key of at least 8 characters",
-                    k.split(':').next().unwrap_or("")
-                ),
+        if self.upload_idle_timeout_secs == 0 || self.idle_timeout_secs == 0 {
+            bail!("upload_idle_timeout_secs and idle_timeout_secs must be at least 1");
+        }
+        if !(self.rate_limit.is_finite() && self.rate_limit >= 0.0) {
+            bail!("rate_limit must be a number of requests per second, 0 or more");
+        }
+        if self.rate_limit > 0.0 && self.rate_burst == 0 {
+            bail!("rate_burst must be at least 1 when rate_limit is set");
+        }
+        crate::auth::parse_keys(self.api_keys.iter().map(String::as_str), "--api-key")
+            .map_err(|e| anyhow::anyhow!(e))?;
+        if let Some(path) = &self.api_keys_file {
+            // Refuse to start on a bad file; a later bad edit is logged and the old keys kept.
+            crate::auth::read_keys_file(path).map_err(|e| anyhow::anyhow!(e))?;
+        }
+        if let Some(k) = &self.metrics_key {
+            if k.chars().count() < crate::auth::MIN_KEY_LEN {
+                bail!(
+                    "metrics_key: at least {} characters",
+                    crate::auth::MIN_KEY_LEN
+                );
             }
         }
         Ok(())
+    }
+
+    /// All configured keys: flags and config file, then the keys file. Checked for short and
+    /// duplicate keys.
+    pub fn all_keys(&self) -> Result<Vec<(String, String)>, String> {
+        let mut lines: Vec<String> = self.api_keys.clone();
+        if let Some(path) = &self.api_keys_file {
+            let text =
+                std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+            lines.extend(crate::auth::key_lines(&text));
+        }
+        crate::auth::parse_keys(lines.iter().map(String::as_str), "API keys")
     }
 
     /// The database URL, defaulting to a file in the data directory.
@@ -276,9 +372,9 @@ impl Config {
         }
     }
 
-    /// True when no API keys are configured.
+    /// True when no API keys are configured (neither listed nor in a keys file).
     pub fn dev_mode(&self) -> bool {
-        self.api_keys.is_empty()
+        self.api_keys.is_empty() && self.api_keys_file.is_none()
     }
 }
 
@@ -329,7 +425,7 @@ mod tests {
         let file = dir.path().join("asbuilt.toml");
         std::fs::write(
             &file,
-            "workers = 5\nmax_points = 10\napi_keys = [\"acme:0123456789\"]\n",
+            "workers = 5\nmax_points = 10\napi_keys = [\"acme:0123456789abcdef\"]\n",
         )
         .unwrap();
         let args = ConfigArgs {
@@ -347,11 +443,29 @@ mod tests {
     }
 
     #[test]
-    fn short_keys_are_refused() {
+    fn short_and_duplicate_keys_are_refused() {
         let c = Config {
-            api_keys: vec!["acme:short".into()],
+            api_keys: vec!["acme:short-key-15chr".into()],
             ..Default::default()
         };
-        assert!(c.check().unwrap_err().to_string().contains("acme"));
+        let e = c.check().unwrap_err().to_string();
+        assert!(e.contains("acme") && e.contains("16"), "{e}");
+        let c = Config {
+            api_keys: vec![
+                "acme:0123456789abcdef".into(),
+                "bolt:0123456789abcdef".into(),
+            ],
+            ..Default::default()
+        };
+        let e = c.check().unwrap_err().to_string();
+        assert!(
+            e.contains("acme") && e.contains("bolt") && e.contains("same key"),
+            "{e}"
+        );
+        let ok = Config {
+            api_keys: vec!["acme:0123456789abcdef".into()],
+            ..Default::default()
+        };
+        assert!(ok.check().is_ok());
     }
 }

@@ -1,76 +1,163 @@
-//! API errors: every error response is `{"error": {"code", "message", "param"?}}` with a code
-//! from [`CODES`]. Codes are a promise to clients: add new ones, never rename.
+//! API errors: every error response is `{"error": {"code", "message", "param"?}}` with a
+//! [`Code`]. Codes are a promise to clients: add new ones, never rename.
 
+use axum::http::header::{HeaderValue, RETRY_AFTER, WWW_AUTHENTICATE};
 use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 use axum::Json;
 use serde::Serialize;
 
-/// Every request error code, its HTTP status, and what it means.
-pub const CODES: &[(&str, u16, &str)] = &[
-    (
-        "invalid_request",
-        400,
-        "The request is malformed (bad query string, body or header).",
-    ),
-    (
-        "invalid_multipart",
-        400,
-        "The multipart body could not be read.",
-    ),
-    ("unauthorized", 401, "No API key, or an unknown one."),
-    (
-        "not_found",
-        404,
-        "No such job for this API key (other tenants' jobs are not found either).",
-    ),
-    ("route_not_found", 404, "No such endpoint."),
-    (
-        "method_not_allowed",
-        405,
-        "The endpoint exists but not with this method.",
-    ),
-    (
-        "result_not_ready",
-        409,
-        "The job has not succeeded (yet), so it has no result.",
-    ),
-    (
-        "payload_too_large",
-        413,
-        "The upload or one of its parts is over the size limit; nothing was kept.",
-    ),
-    (
-        "unsupported_format",
-        415,
-        "The upload is not a point cloud format asbuilt reads (PLY, E57, LAS/LAZ, XYZ/PTS).",
-    ),
-    (
-        "missing_cloud",
-        422,
-        "The request has no cloud (empty body, or no `cloud` part).",
-    ),
-    (
-        "invalid_parameter",
-        422,
-        "A parameter is unknown or has a bad value; `param` names it.",
-    ),
-    (
-        "invalid_sidecar",
-        422,
-        "The poses or trajectory part is not a JSON object.",
-    ),
-    (
-        "internal",
-        500,
-        "Something failed on the server; the log has the detail.",
-    ),
-    (
-        "unavailable",
-        503,
-        "The server is shutting down or its storage does not answer.",
-    ),
+/// Every request error code.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Code {
+    InvalidRequest,
+    InvalidMultipart,
+    Unauthorized,
+    NotFound,
+    RouteNotFound,
+    MethodNotAllowed,
+    UploadTimeout,
+    ResultNotReady,
+    PayloadTooLarge,
+    UriTooLong,
+    UnsupportedFormat,
+    MissingCloud,
+    InvalidParameter,
+    InvalidSidecar,
+    RateLimited,
+    QueueFull,
+    HeaderTooLarge,
+    Internal,
+    Unavailable,
+}
+
+/// Every code, in the order the OpenAPI document lists them.
+pub const CODES: [Code; 19] = [
+    Code::InvalidRequest,
+    Code::InvalidMultipart,
+    Code::Unauthorized,
+    Code::NotFound,
+    Code::RouteNotFound,
+    Code::MethodNotAllowed,
+    Code::UploadTimeout,
+    Code::ResultNotReady,
+    Code::PayloadTooLarge,
+    Code::UriTooLong,
+    Code::UnsupportedFormat,
+    Code::MissingCloud,
+    Code::InvalidParameter,
+    Code::InvalidSidecar,
+    Code::RateLimited,
+    Code::QueueFull,
+    Code::HeaderTooLarge,
+    Code::Internal,
+    Code::Unavailable,
 ];
+
+impl Code {
+    /// The code as sent.
+    pub fn as_str(self) -> &'static str {
+        self.describe().0
+    }
+
+    /// The HTTP status it is answered with.
+    pub fn status(self) -> StatusCode {
+        StatusCode::from_u16(self.describe().1).expect("valid status")
+    }
+
+    /// What it means, for documents.
+    pub fn meaning(self) -> &'static str {
+        self.describe().2
+    }
+
+    fn describe(self) -> (&'static str, u16, &'static str) {
+        match self {
+            Code::InvalidRequest => (
+                "invalid_request",
+                400,
+                "The request is malformed (bad query string, body, header or HTTP framing).",
+            ),
+            Code::InvalidMultipart => (
+                "invalid_multipart",
+                400,
+                "The multipart body could not be read.",
+            ),
+            Code::Unauthorized => ("unauthorized", 401, "No API key, or an unknown one."),
+            Code::NotFound => (
+                "not_found",
+                404,
+                "No such job for this API key (other tenants' jobs are not found either).",
+            ),
+            Code::RouteNotFound => ("route_not_found", 404, "No such endpoint."),
+            Code::MethodNotAllowed => (
+                "method_not_allowed",
+                405,
+                "The endpoint exists but not with this method.",
+            ),
+            Code::UploadTimeout => (
+                "upload_timeout",
+                408,
+                "The upload stalled or came in slower than the server's minimum rate; nothing was kept.",
+            ),
+            Code::ResultNotReady => (
+                "result_not_ready",
+                409,
+                "The job has not succeeded (yet), so it has no result.",
+            ),
+            Code::PayloadTooLarge => (
+                "payload_too_large",
+                413,
+                "The upload or one of its parts is over the size limit; nothing was kept.",
+            ),
+            Code::UriTooLong => ("uri_too_long", 414, "The request line is too long."),
+            Code::UnsupportedFormat => (
+                "unsupported_format",
+                415,
+                "The upload is not a point cloud format asbuilt reads (PLY, E57, LAS/LAZ, XYZ/PTS).",
+            ),
+            Code::MissingCloud => (
+                "missing_cloud",
+                422,
+                "The request has no cloud (empty body, or no `cloud` part).",
+            ),
+            Code::InvalidParameter => (
+                "invalid_parameter",
+                422,
+                "A parameter is unknown or has a bad value; `param` names it.",
+            ),
+            Code::InvalidSidecar => (
+                "invalid_sidecar",
+                422,
+                "The poses or trajectory part is not a JSON object.",
+            ),
+            Code::RateLimited => (
+                "rate_limited",
+                429,
+                "Too many requests from this tenant (or failed keys from this address); `Retry-After` says when to try again.",
+            ),
+            Code::QueueFull => (
+                "queue_full",
+                429,
+                "This tenant has as many queued jobs as the server allows; `Retry-After` says when to try again.",
+            ),
+            Code::HeaderTooLarge => (
+                "header_too_large",
+                431,
+                "The request's headers are too large.",
+            ),
+            Code::Internal => (
+                "internal",
+                500,
+                "Something failed on the server; the log has the detail.",
+            ),
+            Code::Unavailable => (
+                "unavailable",
+                503,
+                "The server is shutting down or its storage does not answer.",
+            ),
+        }
+    }
+}
 
 /// Every code a failed job can carry in `error.code`, and what it means.
 pub const JOB_CODES: &[(&str, &str)] = &[
@@ -132,10 +219,12 @@ fn clip(text: String, max: usize) -> String {
 #[derive(Debug)]
 pub struct ApiError {
     pub status: StatusCode,
-    pub code: &'static str,
+    pub code: Code,
     pub message: String,
     /// The parameter at fault, for `invalid_parameter`.
     pub param: Option<String>,
+    /// Seconds for `Retry-After` (429 and 503).
+    pub retry_after: Option<u64>,
 }
 
 #[derive(Serialize)]
@@ -152,37 +241,50 @@ struct Inner<'a> {
 }
 
 impl ApiError {
-    /// An error with the status its code has in [`CODES`].
-    pub fn new(code: &'static str, message: impl Into<String>) -> ApiError {
-        let status = CODES
-            .iter()
-            .find(|(c, _, _)| *c == code)
-            .map(|&(_, s, _)| StatusCode::from_u16(s).expect("valid status in CODES"))
-            .unwrap_or(StatusCode::INTERNAL_SERVER_ERROR);
-        debug_assert!(CODES.iter().any(|(c, _, _)| *c == code), "{code}");
+    /// An error with its code's status.
+    pub fn new(code: Code, message: impl Into<String>) -> ApiError {
         ApiError {
-            status,
+            status: code.status(),
             code,
             message: clip(message.into(), MAX_MESSAGE),
             param: None,
+            retry_after: None,
         }
     }
 
     /// `invalid_parameter`, naming the parameter.
     pub fn param(name: impl Into<String>, message: impl Into<String>) -> ApiError {
-        let mut e = ApiError::new("invalid_parameter", message);
+        let mut e = ApiError::new(Code::InvalidParameter, message);
         e.param = Some(clip(name.into(), MAX_PARAM));
         e
     }
 
     pub fn not_found() -> ApiError {
-        ApiError::new("not_found", "no such job")
+        ApiError::new(Code::NotFound, "no such job")
     }
 
     /// A server-side failure: logged in full, answered in general terms.
     pub fn internal(detail: impl std::fmt::Display) -> ApiError {
         tracing::error!(%detail, "internal error");
-        ApiError::new("internal", "internal error; see the server log")
+        ApiError::new(Code::Internal, "internal error; see the server log")
+    }
+
+    /// Adds `Retry-After: secs` (at least 1).
+    pub fn retry_after(mut self, secs: u64) -> ApiError {
+        self.retry_after = Some(secs.max(1));
+        self
+    }
+
+    /// The body of an error answered outside any handler (HTTP framing errors).
+    pub fn body_json(code: Code, message: &str) -> String {
+        serde_json::to_string(&Body {
+            error: Inner {
+                code: code.as_str(),
+                message,
+                param: None,
+            },
+        })
+        .expect("error bodies serialize")
     }
 }
 
@@ -190,12 +292,24 @@ impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
         let body = Body {
             error: Inner {
-                code: self.code,
+                code: self.code.as_str(),
                 message: &self.message,
                 param: self.param.as_deref(),
             },
         };
-        (self.status, Json(body)).into_response()
+        let mut response = (self.status, Json(body)).into_response();
+        let headers = response.headers_mut();
+        if self.code == Code::Unauthorized {
+            // RFC 7235: a 401 names the scheme it wants.
+            headers.insert(
+                WWW_AUTHENTICATE,
+                HeaderValue::from_static("Bearer realm=\"asbuilt\""),
+            );
+        }
+        if let Some(secs) = self.retry_after {
+            headers.insert(RETRY_AFTER, HeaderValue::from(secs));
+        }
+        response
     }
 }
 
@@ -218,12 +332,21 @@ mod tests {
     #[test]
     fn codes_are_unique_and_statuses_valid() {
         let mut seen = std::collections::HashSet::new();
-        for (code, status, what) in CODES {
-            assert!(seen.insert(*code), "duplicate {code}");
-            assert!(StatusCode::from_u16(*status).is_ok());
-            assert!(!what.is_empty());
+        for code in CODES {
+            assert!(seen.insert(code.as_str()), "duplicate {code:?}");
+            assert!(code.status().is_client_error() || code.status().is_server_error());
+            assert!(!code.meaning().is_empty());
         }
-        assert_eq!(ApiError::new("payload_too_large", "x").status, 413);
+        assert_eq!(ApiError::new(Code::PayloadTooLarge, "x").status, 413);
+        let r = ApiError::new(Code::Unauthorized, "x").into_response();
+        assert!(r.headers()[WWW_AUTHENTICATE]
+            .to_str()
+            .unwrap()
+            .starts_with("Bearer"));
+        let r = ApiError::new(Code::RateLimited, "x")
+            .retry_after(0)
+            .into_response();
+        assert_eq!(r.headers()[RETRY_AFTER], "1");
         assert_eq!(ApiError::param("samples.cell_size", "x").status, 422);
         let long = ApiError::param("k".repeat(10_000), "m".repeat(10_000));
         assert_eq!(long.param.unwrap().chars().count(), MAX_PARAM + 1);

@@ -37,6 +37,14 @@ pub fn worker(state: AppState) -> Router {
         .with_state(state)
 }
 
+/// The `--metrics-listen` router: `/metrics` without a key, and nothing else.
+pub fn metrics_only(state: AppState) -> Router {
+    Router::new()
+        .route("/metrics", get(controllers::metrics::metrics_open))
+        .fallback(controllers::route_not_found)
+        .with_state(state)
+}
+
 /// The application's router.
 pub fn build(state: AppState) -> Router {
     Router::new()

@@ -116,6 +116,8 @@ macro_rules! on_both_backends {
 }
 
 on_both_backends!(
+    claims_are_fair_across_tenants,
+    queued_caps_hold_and_release_all_hands_back_once,
     claim_heartbeat_complete,
     expired_leases_requeue_then_fail,
     release_cancel_and_delete,
@@ -159,6 +161,77 @@ fn outcome(points: u64) -> JobOutcome {
         input: serde_json::json!({"points": points, "format": "ply", "scans": 2}),
         timings: serde_json::json!({"stories": 3, "total": 10}),
     }
+}
+
+/// One tenant's flood does not starve another's single job: with one worker, the second
+/// tenant's job is claimed right after the flood's first, though 99 older jobs wait.
+async fn claims_are_fair_across_tenants(b: &Backend) {
+    let s = &b.store;
+    // Start times are in milliseconds: claims are kept apart so they differ.
+    let pause = || tokio::time::sleep(Duration::from_millis(5));
+    for _ in 0..100 {
+        s.create(new_job("flood", 3)).await.unwrap();
+    }
+    let single = s.create(new_job("single", 3)).await.unwrap();
+    // Nobody has started anything: the oldest job goes first.
+    let first = s.claim("w", 10_000).await.unwrap().unwrap();
+    assert_eq!(first.tenant, "flood");
+    pause().await;
+    // `flood` has a job running, `single` none.
+    let second = s.claim("w", 10_000).await.unwrap().unwrap();
+    assert_eq!(second.id, single.id, "the single job is not starved");
+    s.complete(first.id, "w", &outcome(1)).await.unwrap();
+    s.complete(second.id, "w", &outcome(1)).await.unwrap();
+    pause().await;
+    // Nothing running: the tenant whose last job started longest ago goes first.
+    let late = s.create(new_job("single", 3)).await.unwrap();
+    let third = s.claim("w", 10_000).await.unwrap().unwrap();
+    assert_eq!(third.tenant, "flood", "flood last started before single");
+    pause().await;
+    let fourth = s.claim("w", 10_000).await.unwrap().unwrap();
+    assert_eq!(fourth.id, late.id, "flood has one running, single none");
+}
+
+async fn queued_caps_hold_and_release_all_hands_back_once(b: &Backend) {
+    let s = &b.store;
+    for _ in 0..3 {
+        assert!(s.create_within(new_job("a", 3), 3).await.unwrap().is_some());
+    }
+    assert!(s.create_within(new_job("a", 3), 3).await.unwrap().is_none());
+    assert!(s.create_within(new_job("b", 3), 3).await.unwrap().is_some());
+    assert!(s.create_within(new_job("a", 3), 0).await.unwrap().is_some());
+    assert_eq!(s.queued_count("a").await.unwrap(), 4);
+    assert_eq!(s.queued_count("c").await.unwrap(), 0);
+    // Concurrent uploads from another handle cannot slip past the cap together.
+    let other = (b.reopen)().await;
+    let tries: Vec<_> = (0..6)
+        .map(|i| {
+            let st = if i % 2 == 0 { s.clone() } else { other.clone() };
+            tokio::spawn(async move { st.create_within(new_job("c", 3), 2).await.unwrap() })
+        })
+        .collect();
+    let mut made = 0;
+    for t in tries {
+        made += usize::from(t.await.unwrap().is_some());
+    }
+    assert_eq!(made, 2);
+    assert_eq!(s.queued_count("c").await.unwrap(), 2);
+
+    let x = s.claim("proc-1/0", 10_000).await.unwrap().unwrap();
+    let y = s.claim("proc-1/1", 10_000).await.unwrap().unwrap();
+    let z = s.claim("proc-2/0", 10_000).await.unwrap().unwrap();
+    let mut back = s.release_all("proc-1/").await.unwrap();
+    back.sort();
+    let mut want = vec![x.id, y.id];
+    want.sort();
+    assert_eq!(back, want);
+    assert!(s.release_all("proc-1/").await.unwrap().is_empty(), "once");
+    let again = s.get(None, x.id).await.unwrap().unwrap();
+    assert_eq!((again.status, again.attempts), (JobStatus::Queued, 0));
+    assert_eq!(
+        s.get(None, z.id).await.unwrap().unwrap().status,
+        JobStatus::Running
+    );
 }
 
 async fn claim_heartbeat_complete(b: &Backend) {
@@ -244,14 +317,14 @@ async fn release_cancel_and_delete(b: &Backend) {
         code: "x".into(),
         message: "y".into(),
     };
-    assert!(!s.fail(job.id, "w", &err).await.unwrap());
+    assert!(!s.fail(job.id, "w", &err, Some("fit")).await.unwrap());
     assert!(s.delete(job.id).await.unwrap());
     assert!(!s.delete(job.id).await.unwrap());
     assert!(s.get(None, job.id).await.unwrap().is_none());
 
     let failing = s.create(new_job("a", 3)).await.unwrap();
     s.claim("w", 10_000).await.unwrap().unwrap();
-    assert!(s.fail(failing.id, "w", &err).await.unwrap());
+    assert!(s.fail(failing.id, "w", &err, Some("fit")).await.unwrap());
     let got = s.get(None, failing.id).await.unwrap().unwrap();
     assert_eq!((got.status, got.error), (JobStatus::Failed, Some(err)));
     let old = s.finished_before(super_now() + 1000, 10).await.unwrap();

@@ -20,13 +20,14 @@ async fn the_page_uploads_follows_and_draws_the_plan() {
         spin: false,
     });
     let s = common::start(pipeline, |c| {
-        c.api_keys = vec!["acme:acme-browser-key".into()]
+        c.api_keys = vec!["acme:acme-browser-key-0001".into()]
     })
     .await;
     let cloud = s.dir.path().join("room.xyz");
     std::fs::write(&cloud, common::xyz(500)).unwrap();
     let shot = std::env::temp_dir().join("asbuilt-page.png");
-    let seen = common::browser_upload(&s.base, &cloud, None, &shot, Some("acme-browser-key")).await;
+    let seen =
+        common::browser_upload(&s.base, &cloud, None, &shot, Some("acme-browser-key-0001")).await;
     assert_eq!(seen["status"], "succeeded");
     assert_eq!(seen["walls"], 2, "{seen}");
     assert_eq!(seen["arcs"], 1, "{seen}");

@@ -1,60 +1,12 @@
 //! The `asbuilt serve` process: durability across SIGKILL, development mode, `migrate`.
 
-use std::io::{BufRead, BufReader};
-use std::path::Path;
-use std::process::{Child, Command, Stdio};
-use std::sync::mpsc;
+mod support;
+
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 use serde_json::Value;
-
-/// A server process and the address it printed.
-struct Proc {
-    child: Child,
-    base: String,
-    /// Log lines before the listening line.
-    early: Vec<String>,
-}
-
-fn serve(data: &Path, extra: &[&str]) -> Proc {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_asbuilt"));
-    cmd.arg("serve").arg("--data-dir").arg(data).args(extra);
-    if !extra.contains(&"--listen") {
-        cmd.args(["--listen", "127.0.0.1:0"]);
-    }
-    let mut child = cmd
-        .env("ASBUILT_LOG", "info")
-        .env_remove("ASBUILT_API_KEYS")
-        .stderr(Stdio::piped())
-        .stdout(Stdio::null())
-        .spawn()
-        .unwrap();
-    let (tx, rx) = mpsc::channel();
-    let stderr = child.stderr.take().unwrap();
-    std::thread::spawn(move || {
-        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-            let _ = tx.send(line);
-        }
-    });
-    let end = Instant::now() + Duration::from_secs(30);
-    let mut seen = vec![];
-    let base = loop {
-        let line = rx
-            .recv_timeout(end.saturating_duration_since(Instant::now()))
-            .unwrap_or_else(|_| panic!("no listening line; log: {seen:#?}"));
-        if let Some(at) = line.find("listening on ") {
-            break line[at + "listening on ".len()..].trim().to_string();
-        }
-        seen.push(line);
-    };
-    // Keep draining the log so the pipe never fills.
-    std::thread::spawn(move || while rx.recv().is_ok() {});
-    Proc {
-        child,
-        base,
-        early: seen,
-    }
-}
+use support::process::serve;
 
 fn get(url: &str) -> Value {
     reqwest::blocking_get(url)
@@ -171,7 +123,7 @@ fn without_keys_it_binds_loopback_and_says_so() {
     assert_eq!(get(&format!("{}/healthz", p.base))["status"], "ok");
     p.child.kill().unwrap();
     p.child.wait().unwrap();
-    let log = p.early.join("\n");
+    let log = p.log();
     assert!(
         log.contains("development mode binds to loopback only"),
         "{log}"
@@ -200,15 +152,15 @@ fn migrate_creates_the_database_and_is_idempotent() {
 #[test]
 fn bad_settings_are_refused_naming_the_setting() {
     let out = Command::new(env!("CARGO_BIN_EXE_asbuilt"))
-        .args(["serve", "--api-key", "acme:short", "--data-dir"])
+        .args(["serve", "--api-key", "acme:tinykey", "--data-dir"])
         .arg(tempfile::tempdir().unwrap().path())
         .output()
         .unwrap();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("api key `acme`"), "{err}");
+    assert!(err.contains("tenant `acme`") && err.contains("16"), "{err}");
     assert!(
-        !err.contains("short"),
+        !err.contains("tinykey"),
         "the key itself is not echoed: {err}"
     );
 }

@@ -63,11 +63,16 @@ pub fn worker(args: WorkerArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn serve(config: asbuilt::config::Config) -> anyhow::Result<ExitCode> {
-    runtime()?.block_on(async {
+    let rt = runtime()?;
+    let result = rt.block_on(async {
         let pipeline = asbuilt::app::pipeline_for(&config);
         let running = asbuilt::app::start(config, pipeline).await?;
         running.wait().await
-    })?;
+    });
+    // A pipeline thread stuck in a call that cannot be interrupted would hold a plain drop of
+    // the runtime for ever; its job is already back in the queue, so do not wait for it.
+    rt.shutdown_timeout(std::time::Duration::from_millis(200));
+    result?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -243,11 +243,19 @@ pub trait JobStore: Send + Sync + 'static {
     async fn ping(&self) -> Result<(), StoreError>;
     /// Records a new queued job.
     async fn create(&self, job: NewJob) -> Result<Job, StoreError>;
+    /// Records a new queued job unless its tenant already has `max_queued` queued jobs (0: no
+    /// cap), in one atomic step; `None` when over the cap.
+    async fn create_within(&self, job: NewJob, max_queued: u32) -> Result<Option<Job>, StoreError>;
+    /// How many jobs `tenant` has queued.
+    async fn queued_count(&self, tenant: &str) -> Result<u64, StoreError>;
     /// A job by id; `tenant` restricts it to one tenant's jobs.
     async fn get(&self, tenant: Option<&str>, id: JobId) -> Result<Option<Job>, StoreError>;
     /// A tenant's jobs, newest first.
     async fn list(&self, query: &ListQuery) -> Result<Vec<Job>, StoreError>;
-    /// Takes the oldest queued job for `owner` with a lease of `lease_ms`, counting an attempt.
+    /// Takes a queued job for `owner` with a lease of `lease_ms`, counting an attempt. Fair
+    /// across tenants: the tenant with the fewest running jobs goes first, then the one whose
+    /// last job started longest ago (never is longest), then the oldest job; so one tenant's
+    /// flood of jobs does not starve another's single job.
     async fn claim(&self, owner: &str, lease_ms: i64) -> Result<Option<Job>, StoreError>;
     /// Renews `owner`'s lease and records progress; [`Heartbeat::Lost`] when the job is no
     /// longer running under this owner.
@@ -265,10 +273,20 @@ pub trait JobStore: Send + Sync + 'static {
         owner: &str,
         outcome: &JobOutcome,
     ) -> Result<bool, StoreError>;
-    /// Marks `owner`'s running job failed; false when the lease was lost.
-    async fn fail(&self, id: JobId, owner: &str, error: &JobError) -> Result<bool, StoreError>;
+    /// Marks `owner`'s running job failed in `stage` (the stage it stopped in, when known);
+    /// false when the lease was lost.
+    async fn fail(
+        &self,
+        id: JobId,
+        owner: &str,
+        error: &JobError,
+        stage: Option<&str>,
+    ) -> Result<bool, StoreError>;
     /// Hands `owner`'s running job back to the queue without spending an attempt (shutdown).
     async fn release(&self, id: JobId, owner: &str) -> Result<bool, StoreError>;
+    /// Hands back every job still running under an owner that starts with `prefix` (all of a
+    /// process's workers, at the end of shutdown), without spending attempts.
+    async fn release_all(&self, prefix: &str) -> Result<Vec<JobId>, StoreError>;
     /// Requeues running jobs whose lease ran out, or fails them once attempts are spent.
     async fn requeue_expired(&self) -> Result<Expired, StoreError>;
     /// Cancels a tenant's queued or running job; returns the job as it now is.

@@ -26,11 +26,18 @@ use super::{
 };
 
 /// The PostgreSQL migrations, in order: (version, description, SQL).
-const MIGRATIONS: &[(i64, &str, &str)] = &[(
-    1,
-    "jobs",
-    include_str!("../../migrations/postgres/0001_jobs.sql"),
-)];
+const MIGRATIONS: &[(i64, &str, &str)] = &[
+    (
+        1,
+        "jobs",
+        include_str!("../../migrations/postgres/0001_jobs.sql"),
+    ),
+    (
+        2,
+        "tenant fairness",
+        include_str!("../../migrations/postgres/0002_tenant_fairness.sql"),
+    ),
+];
 
 fn migrations() -> Vec<Migration> {
     MIGRATIONS
@@ -290,6 +297,54 @@ impl JobStore for PgJobStore {
         Self::row_to_job(&row)
     }
 
+    async fn create_within(&self, job: NewJob, max_queued: u32) -> Result<Option<Job>, StoreError> {
+        if max_queued == 0 {
+            return self.create(job).await.map(Some);
+        }
+        // Concurrent uploads of one tenant (in any process) take turns on the tenant's lock,
+        // so the count cannot change between the check and the insert.
+        let mut tx = self.pool.begin().await?;
+        sqlx::query("SELECT pg_advisory_xact_lock(hashtextextended($1, 0))")
+            .bind(format!("asbuilt queued {}", job.tenant))
+            .execute(&mut *tx)
+            .await?;
+        let queued: i64 =
+            sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE tenant = $1 AND status = 'queued'")
+                .bind(&job.tenant)
+                .fetch_one(&mut *tx)
+                .await?;
+        if queued >= max_queued as i64 {
+            return Ok(None);
+        }
+        let now = now_ms();
+        let sql = format!(
+            "INSERT INTO jobs (id, tenant, status, progress, params, upload, attempts, \
+             max_attempts, created_at, updated_at) \
+             VALUES ($1::uuid, $2, 'queued', 0, $3::jsonb, $4::jsonb, 0, $5, $6, $6) \
+             RETURNING {COLUMNS}"
+        );
+        let row = sqlx::query(&sql)
+            .bind(job.id.to_string())
+            .bind(&job.tenant)
+            .bind(job.params.to_string())
+            .bind(serde_json::to_string(&job.upload).map_err(|e| StoreError(e.to_string()))?)
+            .bind(job.max_attempts as i32)
+            .bind(now)
+            .fetch_one(&mut *tx)
+            .await?;
+        tx.commit().await?;
+        Self::row_to_job(&row).map(Some)
+    }
+
+    async fn queued_count(&self, tenant: &str) -> Result<u64, StoreError> {
+        let n: i64 =
+            sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE tenant = $1 AND status = 'queued'")
+                .bind(tenant)
+                .fetch_one(&self.pool)
+                .await?;
+        Ok(n as u64)
+    }
+
     async fn get(&self, tenant: Option<&str>, id: JobId) -> Result<Option<Job>, StoreError> {
         let sql = format!(
             "SELECT {COLUMNS} FROM jobs WHERE id = $1::uuid AND ($2::text IS NULL OR tenant = $2)"
@@ -324,8 +379,12 @@ impl JobStore for PgJobStore {
             "UPDATE jobs SET status = 'running', lease_owner = $1, lease_until = $2, \
              attempts = attempts + 1, started_at = COALESCE(started_at, $3), updated_at = $3, \
              stage = NULL, progress = 0 \
-             WHERE id = (SELECT id FROM jobs WHERE status = 'queued' ORDER BY id LIMIT 1 \
-                         FOR UPDATE SKIP LOCKED) \
+             WHERE id = (SELECT q.id FROM jobs q WHERE q.status = 'queued' ORDER BY \
+                  (SELECT COUNT(*) FROM jobs r WHERE r.tenant = q.tenant AND r.status = 'running'), \
+                  (SELECT MAX(s.started_at) FROM jobs s \
+                   WHERE s.tenant = q.tenant AND s.started_at IS NOT NULL) NULLS FIRST, \
+                  q.id \
+                LIMIT 1 FOR UPDATE SKIP LOCKED) \
              RETURNING {COLUMNS}"
         );
         let row = sqlx::query(&sql)
@@ -388,10 +447,17 @@ impl JobStore for PgJobStore {
         Ok(done.rows_affected() == 1)
     }
 
-    async fn fail(&self, id: JobId, owner: &str, error: &JobError) -> Result<bool, StoreError> {
+    async fn fail(
+        &self,
+        id: JobId,
+        owner: &str,
+        error: &JobError,
+        stage: Option<&str>,
+    ) -> Result<bool, StoreError> {
         let now = now_ms();
         let done = sqlx::query(
             "UPDATE jobs SET status = 'failed', error_code = $1, error_message = $2, \
+             stage = COALESCE($6, stage), \
              lease_owner = NULL, lease_until = NULL, finished_at = $3, updated_at = $3 \
              WHERE id = $4::uuid AND status = 'running' AND lease_owner = $5",
         )
@@ -400,6 +466,7 @@ impl JobStore for PgJobStore {
         .bind(now)
         .bind(id.to_string())
         .bind(owner)
+        .bind(stage)
         .execute(&self.pool)
         .await?;
         Ok(done.rows_affected() == 1)
@@ -417,6 +484,22 @@ impl JobStore for PgJobStore {
         .execute(&self.pool)
         .await?;
         Ok(done.rows_affected() == 1)
+    }
+
+    async fn release_all(&self, prefix: &str) -> Result<Vec<JobId>, StoreError> {
+        let ids: Vec<String> = sqlx::query_scalar(
+            "UPDATE jobs SET status = 'queued', stage = NULL, progress = 0, \
+             attempts = GREATEST(attempts - 1, 0), lease_owner = NULL, lease_until = NULL, \
+             updated_at = $1 WHERE status = 'running' AND starts_with(lease_owner, $2) \
+             RETURNING id::text",
+        )
+        .bind(now_ms())
+        .bind(prefix)
+        .fetch_all(&self.pool)
+        .await?;
+        ids.iter()
+            .map(|s| JobId::from_str(s).map_err(|e| StoreError(e.to_string())))
+            .collect()
     }
 
     async fn requeue_expired(&self) -> Result<Expired, StoreError> {
@@ -525,10 +608,14 @@ mod tests {
     #[test]
     fn schema_check_names_what_to_do() {
         let known = migrations();
-        assert!(schema_verdict(&applied(&[1]), &known).is_ok());
+        assert!(schema_verdict(&applied(&[1, 2]), &known).is_ok());
+        assert!(
+            schema_verdict(&applied(&[1]), &known).is_err(),
+            "a migration missing"
+        );
         let none = schema_verdict(&[], &known).unwrap_err().0;
         assert!(none.contains("run `asbuilt migrate`"), "{none}");
-        let newer = schema_verdict(&applied(&[1, 99]), &known).unwrap_err().0;
+        let newer = schema_verdict(&applied(&[1, 2, 99]), &known).unwrap_err().0;
         assert!(newer.contains("newer than this binary"), "{newer}");
         let changed = schema_verdict(&[(1, vec![0u8; 48])], &known).unwrap_err().0;
         assert!(

@@ -21,11 +21,18 @@ use super::{
 };
 
 /// The SQLite migrations, in order: (version, description, SQL).
-const MIGRATIONS: &[(i64, &str, &str)] = &[(
-    1,
-    "jobs",
-    include_str!("../../migrations/sqlite/0001_jobs.sql"),
-)];
+const MIGRATIONS: &[(i64, &str, &str)] = &[
+    (
+        1,
+        "jobs",
+        include_str!("../../migrations/sqlite/0001_jobs.sql"),
+    ),
+    (
+        2,
+        "tenant fairness",
+        include_str!("../../migrations/sqlite/0002_tenant_fairness.sql"),
+    ),
+];
 
 /// Hands sqlx the migrations embedded above.
 #[derive(Debug)]
@@ -160,6 +167,40 @@ impl JobStore for SqliteJobStore {
         Self::row_to_job(&row)
     }
 
+    async fn create_within(&self, job: NewJob, max_queued: u32) -> Result<Option<Job>, StoreError> {
+        let now = now_ms();
+        // One statement: SQLite serialises writers, so the count cannot change under it.
+        let sql = format!(
+            "INSERT INTO jobs (id, tenant, status, progress, params, upload, attempts, max_attempts, \
+             created_at, updated_at) SELECT ?, ?, 'queued', 0, ?, ?, 0, ?, ?, ? \
+             WHERE ? = 0 OR (SELECT COUNT(*) FROM jobs WHERE tenant = ? AND status = 'queued') < ? \
+             RETURNING {COLUMNS}"
+        );
+        let row = sqlx::query(&sql)
+            .bind(job.id.to_string())
+            .bind(&job.tenant)
+            .bind(job.params.to_string())
+            .bind(serde_json::to_string(&job.upload).map_err(|e| StoreError(e.to_string()))?)
+            .bind(job.max_attempts as i64)
+            .bind(now)
+            .bind(now)
+            .bind(max_queued as i64)
+            .bind(&job.tenant)
+            .bind(max_queued as i64)
+            .fetch_optional(&self.pool)
+            .await?;
+        row.as_ref().map(Self::row_to_job).transpose()
+    }
+
+    async fn queued_count(&self, tenant: &str) -> Result<u64, StoreError> {
+        let n: i64 =
+            sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE tenant = ? AND status = 'queued'")
+                .bind(tenant)
+                .fetch_one(&self.pool)
+                .await?;
+        Ok(n as u64)
+    }
+
     async fn get(&self, tenant: Option<&str>, id: JobId) -> Result<Option<Job>, StoreError> {
         let sql = format!("SELECT {COLUMNS} FROM jobs WHERE id = ? AND (? IS NULL OR tenant = ?)");
         let row = sqlx::query(&sql)
@@ -193,11 +234,20 @@ impl JobStore for SqliteJobStore {
     async fn claim(&self, owner: &str, lease_ms: i64) -> Result<Option<Job>, StoreError> {
         let now = now_ms();
         // One statement: SQLite serialises writers, so two workers never take the same row.
+        // Each tenant's oldest queued job competes; the tenant order is the trait's.
         let sql = format!(
             "UPDATE jobs SET status = 'running', lease_owner = ?, lease_until = ?, \
              attempts = attempts + 1, started_at = COALESCE(started_at, ?), updated_at = ?, \
              stage = NULL, progress = 0 \
-             WHERE id = (SELECT id FROM jobs WHERE status = 'queued' ORDER BY id LIMIT 1) \
+             WHERE id = ( \
+                WITH heads AS (SELECT tenant, MIN(id) AS id FROM jobs \
+                               WHERE status = 'queued' GROUP BY tenant) \
+                SELECT h.id FROM heads h ORDER BY \
+                  (SELECT COUNT(*) FROM jobs r WHERE r.tenant = h.tenant AND r.status = 'running'), \
+                  (SELECT MAX(s.started_at) FROM jobs s \
+                   WHERE s.tenant = h.tenant AND s.started_at IS NOT NULL), \
+                  h.id \
+                LIMIT 1) \
              AND status = 'queued' RETURNING {COLUMNS}"
         );
         let row = sqlx::query(&sql)
@@ -262,15 +312,23 @@ impl JobStore for SqliteJobStore {
         Ok(done.rows_affected() == 1)
     }
 
-    async fn fail(&self, id: JobId, owner: &str, error: &JobError) -> Result<bool, StoreError> {
+    async fn fail(
+        &self,
+        id: JobId,
+        owner: &str,
+        error: &JobError,
+        stage: Option<&str>,
+    ) -> Result<bool, StoreError> {
         let now = now_ms();
         let done = sqlx::query(
             "UPDATE jobs SET status = 'failed', error_code = ?, error_message = ?, \
+             stage = COALESCE(?, stage), \
              lease_owner = NULL, lease_until = NULL, finished_at = ?, updated_at = ? \
              WHERE id = ? AND status = 'running' AND lease_owner = ?",
         )
         .bind(&error.code)
         .bind(&error.message)
+        .bind(stage)
         .bind(now)
         .bind(now)
         .bind(id.to_string())
@@ -292,6 +350,25 @@ impl JobStore for SqliteJobStore {
         .execute(&self.pool)
         .await?;
         Ok(done.rows_affected() == 1)
+    }
+
+    async fn release_all(&self, prefix: &str) -> Result<Vec<JobId>, StoreError> {
+        let rows = sqlx::query(
+            "UPDATE jobs SET status = 'queued', stage = NULL, progress = 0, \
+             attempts = MAX(attempts - 1, 0), lease_owner = NULL, lease_until = NULL, updated_at = ? \
+             WHERE status = 'running' AND substr(lease_owner, 1, length(?)) = ? RETURNING id",
+        )
+        .bind(now_ms())
+        .bind(prefix)
+        .bind(prefix)
+        .fetch_all(&self.pool)
+        .await?;
+        rows.iter()
+            .map(|r| {
+                let s: String = r.try_get("id")?;
+                JobId::from_str(&s).map_err(|e| StoreError(e.to_string()))
+            })
+            .collect()
     }
 
     async fn requeue_expired(&self) -> Result<Expired, StoreError> {

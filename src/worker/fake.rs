@@ -2,8 +2,10 @@
 //!
 //! It counts the cloud's non-empty lines as points, spends a fixed time in each stage (checking
 //! for cancellation every 10 ms), and returns a 4 m × 3 m one-story plan through the real
-//! writers (with `spin`, it burns CPU instead of sleeping). A cloud whose text contains `#fail:CODE` fails with CODE; `#panic` panics. Each run
-//! that completes appends its job id to the completions log, so tests can count runs.
+//! writers (with `spin`, it burns CPU instead of sleeping). A cloud whose text contains `#fail:CODE` fails with CODE; `#panic` panics;
+//! `#hang:SECS` spends SECS seconds in the fit stage without looking at its stop token (a
+//! stage stuck in a call that cannot be interrupted). Each run that completes appends its job
+//! id to the completions log, so tests can count runs.
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -131,10 +133,18 @@ impl Pipeline for FakePipeline {
             .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
             .count() as u64;
         check_points(points, input.max_points)?;
+        let hang: Option<f64> = text
+            .split("#hang:")
+            .nth(1)
+            .and_then(|rest| rest.split_whitespace().next())
+            .and_then(|s| s.parse().ok());
         let mut timings = vec![];
         for (i, stage) in STAGES.iter().enumerate() {
             progress.report(*stage, i as f64 / STAGES.len() as f64);
             let start = Instant::now();
+            if let (Some(secs), Stage::Fitting) = (hang, stage) {
+                std::thread::sleep(Duration::from_secs_f64(secs.clamp(0.0, 3600.0)));
+            }
             self.wait(progress)?;
             timings.push((stage.name().to_string(), start.elapsed().as_millis() as u64));
         }

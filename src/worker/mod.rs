@@ -12,6 +12,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use asbuilt_plan::progress::Stage;
 use asbuilt_plan::Params;
 use bytes::Bytes;
 use tokio::task::JoinHandle;
@@ -102,25 +103,40 @@ impl Workers {
                     deadline,
                 };
                 // The pipeline is CPU-bound and synchronous: never on the async threads.
-                let joined = tokio::task::spawn_blocking(move || {
+                let mut joined = tokio::task::spawn_blocking(move || {
                     std::panic::catch_unwind(AssertUnwindSafe(|| {
                         pipeline.run(&input, &mut progress)
                     }))
-                })
-                .await;
-                match joined {
-                    Ok(Ok(r)) => r,
-                    Ok(Err(_)) | Err(_) => Err(PipelineFailure::new(
-                        "pipeline_panic",
-                        "the pipeline crashed on this input; this is a bug, please report it",
-                    )),
+                });
+                tokio::select! {
+                    joined = &mut joined => match joined {
+                        Ok(Ok(r)) => r,
+                        Ok(Err(_)) | Err(_) => Err(PipelineFailure::new(
+                            "pipeline_panic",
+                            "the pipeline crashed on this input; this is a bug, please report it",
+                        )),
+                    },
+                    // Every stage checks its stop token within a second; a pipeline stuck in a
+                    // call that cannot be interrupted must not hold the worker too.
+                    why = stopped_for(&shared, STOP_GRACE) => {
+                        tracing::warn!(
+                            job = %id, reason = ?why,
+                            "the pipeline did not stop within {STOP_GRACE:?}; its thread is left to finish alone"
+                        );
+                        Err(PipelineFailure::cancelled())
+                    }
                 }
             }
             Err(f) => Err(f),
         };
         beating.abort();
         let _ = tokio::fs::remove_dir_all(&scratch).await;
-        if let Err(e) = self.finish(owner, id, shared.stopped(), result).await {
+        // The stage it stopped in: the last one reported, or reading when none was.
+        let stage = shared.latest().0.unwrap_or(Stage::Read);
+        if let Err(e) = self
+            .finish(owner, id, shared.stopped(), stage, result)
+            .await
+        {
             tracing::error!(job = %id, error = %e, "recording the job's end");
         }
         self.state.changed(id);
@@ -198,6 +214,7 @@ impl Workers {
         owner: &str,
         id: JobId,
         stopped: Option<Stop>,
+        stage: Stage,
         result: Result<JobResults, PipelineFailure>,
     ) -> anyhow::Result<()> {
         let store = &self.state.store;
@@ -242,7 +259,7 @@ impl Workers {
             }
             // Only the time limit is left to have stopped the run; a run that failed on its own
             // reports its own error, even if the deadline passed meanwhile.
-            (_, Err(f)) if f.code == PipelineFailure::cancelled().code => {
+            (_, Err(f)) if f.is_stop() => {
                 let error = JobError {
                     code: "time_limit".into(),
                     message: format!(
@@ -250,7 +267,7 @@ impl Workers {
                         self.state.config.job_timeout_secs
                     ),
                 };
-                if store.fail(id, owner, &error).await? {
+                if store.fail(id, owner, &error, Some(stage.name())).await? {
                     metrics.failure(&error.code);
                 }
             }
@@ -260,13 +277,29 @@ impl Workers {
                     code: f.code,
                     message: f.message,
                 };
-                if store.fail(id, owner, &error).await? {
+                if store.fail(id, owner, &error, Some(stage.name())).await? {
                     metrics.failure(&error.code);
                 }
             }
         }
         Ok(())
     }
+}
+
+/// How long a worker waits for its pipeline to stop once asked, before leaving the pipeline's
+/// thread behind and taking the next job.
+pub const STOP_GRACE: Duration = Duration::from_secs(2);
+
+/// Resolves `grace` after the run was asked to stop, with the reason.
+async fn stopped_for(shared: &Shared, grace: Duration) -> Stop {
+    let why = loop {
+        if let Some(why) = shared.stopped() {
+            break why;
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    };
+    tokio::time::sleep(grace).await;
+    why
 }
 
 /// Renews the lease and records progress until aborted; sets the stop reason when the job is

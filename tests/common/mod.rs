@@ -28,6 +28,8 @@ pub fn config(dir: &std::path::Path) -> Config {
         workers: 2,
         lease_secs: 2,
         shutdown_timeout_secs: 5,
+        // These tests poll fast; the limits have tests of their own (tests/hostile.rs).
+        rate_limit: 0.0,
         ..Config::default()
     }
 }

@@ -46,6 +46,30 @@ pub fn engines(test: &str) -> Option<Engines> {
     }
 }
 
+/// Only PostgreSQL (`ASBUILT_TEST_POSTGRES`), for tests that keep their blobs local; skips
+/// or fails as [`engines`] does.
+pub fn postgres_only(test: &str) -> Option<Engines> {
+    match std::env::var("ASBUILT_TEST_POSTGRES")
+        .ok()
+        .filter(|s| !s.is_empty())
+    {
+        Some(postgres) => Some(Engines {
+            postgres,
+            s3_endpoint: String::new(),
+        }),
+        None => {
+            let why = "ASBUILT_TEST_POSTGRES is not set (source .ci/backends.sh)";
+            assert!(
+                std::env::var_os("CI").is_none(),
+                "{test}: CI is set but PostgreSQL is not: {why}"
+            );
+            use std::io::Write;
+            let _ = writeln!(std::io::stderr(), "skipping {test}: {why}");
+            None
+        }
+    }
+}
+
 /// A fresh name, unique across concurrent tests and runs.
 pub fn unique(prefix: &str) -> String {
     format!("{prefix}_{}", uuid::Uuid::now_v7().simple())

@@ -1,3 +1,4 @@
 //! Helpers shared by the integration tests.
 
 pub mod engines;
+pub mod process;

@@ -537,6 +537,7 @@ mod tests {
 
 #[cfg(test)]
 mod random_tests {
+    use crate::cancel::Cancel;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
@@ -607,7 +608,8 @@ mod random_tests {
                 inlier_angle: 1.5,
                 ..Default::default()
             };
-            let f = fit_walls(&l, &b, &params).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+            let f = fit_walls(&l, &b, &params, &Cancel::never())
+                .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
             let problems = crate::validity::problems(&f.polygons, &crate::validity::Grid::local());
             assert!(problems.is_empty(), "seed {seed}: {problems:?}");
             walls += f.walls.len();

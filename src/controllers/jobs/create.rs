@@ -20,11 +20,16 @@ use axum::Json;
 use bytes::Bytes;
 use futures_util::{StreamExt, TryStreamExt};
 
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
 use super::drain;
+use super::pace::Paced;
 use super::sniff::sniff;
 use crate::app::AppState;
 use crate::auth::Tenant;
-use crate::errors::ApiError;
+use crate::errors::{ApiError, Code};
 use crate::queue::{JobId, NewJob, UploadInfo};
 use crate::storage::{keys, BlobError, ByteStream, Stored};
 use crate::views::JobView;
@@ -50,17 +55,38 @@ pub async fn create(
         .get(EXPECT)
         .is_some_and(|v| v.as_bytes().eq_ignore_ascii_case(b"100-continue"));
     let (parts, body) = request.into_parts();
+    // Every read of the body, raw or multipart, goes through the time limits.
+    let tripped = Arc::new(AtomicBool::new(false));
+    let config = &state.config;
+    let body = Body::from_stream(Paced::new(
+        body.into_data_stream(),
+        Duration::from_secs(config.upload_idle_timeout_secs),
+        config.upload_min_rate,
+        tripped.clone(),
+    ));
     let (body, rest) = drain::split(body);
     let request = Request::from_parts(parts, body);
-    let result = match tenant {
+    let mut result = match tenant {
         Ok(Tenant(tenant)) => accept(&state, tenant, query, request).await,
         Err(e) => {
             drop(request);
             Err(e)
         }
     };
+    if tripped.load(Ordering::Relaxed) {
+        // Whatever the reader made of the timeout, the answer is the timeout.
+        tracing::info!("upload dropped: too slow or stalled");
+        result = Err(ApiError::new(
+            Code::UploadTimeout,
+            format!(
+                "the upload stalled or was slower than this server's limits (nothing for {} s, \
+                 or under {} bytes/s on average); nothing was kept",
+                config.upload_idle_timeout_secs, config.upload_min_rate
+            ),
+        ));
+    }
     if let Err(e) = &result {
-        state.metrics.rejected(e.code);
+        state.metrics.rejected(e.code.as_str());
         // The request (and its body) is gone; read what the client is still sending.
         rest.drain(expects_continue, drain::BUDGET).await;
     }
@@ -74,9 +100,12 @@ async fn accept(
     request: Request,
 ) -> Result<Response, ApiError> {
     if state.shutdown.is_cancelled() {
-        return Err(ApiError::new("unavailable", "the server is shutting down"));
+        return Err(ApiError::new(
+            Code::Unavailable,
+            "the server is shutting down",
+        ));
     }
-    let Query(pairs) = query.map_err(|e| ApiError::new("invalid_request", e.body_text()))?;
+    let Query(pairs) = query.map_err(|e| ApiError::new(Code::InvalidRequest, e.body_text()))?;
     // Query parameters are checked before a byte is stored.
     let mut filename = None;
     let mut overrides = vec![];
@@ -84,11 +113,17 @@ async fn accept(
         if key == "filename" {
             filename = Some(clean_filename(&value));
         } else {
-            Params::default()
-                .set(&format!("{key}={value}"))
+            // Known, well-formed and within its range, before a byte is stored.
+            Params::check_override(&format!("{key}={value}"))
                 .map_err(|e| params_error(&e, Some(key.as_str())))?;
             overrides.push(format!("{key}={value}"));
         }
+    }
+    // A tenant at its cap of queued jobs is told before it uploads (and again, atomically,
+    // when the job is created).
+    let cap = state.config.max_queued;
+    if cap > 0 && state.store.queued_count(&tenant).await? >= cap as u64 {
+        return Err(queue_full(cap));
     }
     let multipart = request
         .headers()
@@ -134,28 +169,35 @@ async fn accept(
     let Some((stored, format)) = received.cloud else {
         let _ = state.blobs.delete_prefix(&keys::job_prefix(id)).await;
         return Err(ApiError::new(
-            "missing_cloud",
+            Code::MissingCloud,
             "the request has no `cloud` part",
         ));
     };
     let job = state
         .store
-        .create(NewJob {
-            id,
-            tenant,
-            params: params.to_json(),
-            upload: UploadInfo {
-                filename: received.filename.or(filename),
-                bytes: stored.bytes,
-                sha256: stored.sha256,
-                format: format.to_string(),
-                sidecar: received.sidecar.map(|s| s.name().to_string()),
+        .create_within(
+            NewJob {
+                id,
+                tenant,
+                params: params.to_json(),
+                upload: UploadInfo {
+                    filename: received.filename.or(filename),
+                    bytes: stored.bytes,
+                    sha256: stored.sha256,
+                    format: format.to_string(),
+                    sidecar: received.sidecar.map(|s| s.name().to_string()),
+                },
+                max_attempts: state.config.max_attempts,
             },
-            max_attempts: state.config.max_attempts,
-        })
+            cap,
+        )
         .await;
     let job = match job {
-        Ok(job) => job,
+        Ok(Some(job)) => job,
+        Ok(None) => {
+            let _ = state.blobs.delete_prefix(&keys::job_prefix(id)).await;
+            return Err(queue_full(cap));
+        }
         Err(e) => {
             let _ = state.blobs.delete_prefix(&keys::job_prefix(id)).await;
             return Err(e.into());
@@ -186,9 +228,21 @@ fn finish_params(r: Received, overrides: &[String]) -> Result<(Received, Params)
     Ok((r, params))
 }
 
+/// How long a tenant at its cap is asked to wait: about one job's time is a guess, so a short
+/// fixed pause that polling clients can live with.
+const QUEUE_FULL_RETRY_SECS: u64 = 10;
+
+fn queue_full(cap: u32) -> ApiError {
+    ApiError::new(
+        Code::QueueFull,
+        format!("this API key already has {cap} queued jobs, the most this server allows; wait for some to start"),
+    )
+    .retry_after(QUEUE_FULL_RETRY_SECS)
+}
+
 fn too_large(limit: u64) -> ApiError {
     ApiError::new(
-        "payload_too_large",
+        Code::PayloadTooLarge,
         format!("the upload is larger than this server's limit of {limit} bytes"),
     )
 }
@@ -197,7 +251,7 @@ fn blob_error(e: BlobError) -> ApiError {
     match e {
         BlobError::TooLarge { limit } => too_large(limit),
         BlobError::Source(e) => ApiError::new(
-            "invalid_request",
+            Code::InvalidRequest,
             format!("the upload was interrupted: {e}"),
         ),
         e => ApiError::internal(e),
@@ -253,9 +307,9 @@ async fn store_cloud(
 
 fn multipart_error(e: MultipartError) -> ApiError {
     if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
-        return ApiError::new("payload_too_large", e.body_text());
+        return ApiError::new(Code::PayloadTooLarge, e.body_text());
     }
-    ApiError::new("invalid_multipart", e.body_text())
+    ApiError::new(Code::InvalidMultipart, e.body_text())
 }
 
 /// Reads a small part whole, refusing it past `limit` bytes.
@@ -264,7 +318,7 @@ async fn read_small(mut field: Field<'_>, name: &str, limit: u64) -> Result<Byte
     while let Some(chunk) = field.chunk().await.map_err(multipart_error)? {
         if (buf.len() + chunk.len()) as u64 > limit {
             return Err(ApiError::new(
-                "payload_too_large",
+                Code::PayloadTooLarge,
                 format!("the `{name}` part is larger than the limit of {limit} bytes"),
             ));
         }
@@ -280,7 +334,7 @@ async fn receive_multipart(
 ) -> Result<Received, ApiError> {
     let mut form = Multipart::from_request(request, state)
         .await
-        .map_err(|e| ApiError::new("invalid_multipart", e.body_text()))?;
+        .map_err(|e| ApiError::new(Code::InvalidMultipart, e.body_text()))?;
     let mut got = Received::default();
     let small = state.config.max_sidecar_bytes;
     while let Some(field) = form.next_field().await.map_err(multipart_error)? {
@@ -289,7 +343,7 @@ async fn receive_multipart(
             "cloud" => {
                 if got.cloud.is_some() {
                     return Err(ApiError::new(
-                        "invalid_multipart",
+                        Code::InvalidMultipart,
                         "more than one `cloud` part",
                     ));
                 }
@@ -300,20 +354,20 @@ async fn receive_multipart(
             "poses" | "trajectory" => {
                 if got.sidecar.is_some() {
                     return Err(ApiError::new(
-                        "invalid_multipart",
+                        Code::InvalidMultipart,
                         "send one `poses` or `trajectory` part, not several",
                     ));
                 }
                 let bytes = read_small(field, &name, small).await?;
                 let value: serde_json::Value = serde_json::from_slice(&bytes).map_err(|e| {
                     ApiError::new(
-                        "invalid_sidecar",
+                        Code::InvalidSidecar,
                         format!("the `{name}` part is not JSON: {e}"),
                     )
                 })?;
                 if !value.is_object() {
                     return Err(ApiError::new(
-                        "invalid_sidecar",
+                        Code::InvalidSidecar,
                         format!("the `{name}` part must be a JSON object"),
                     ));
                 }
@@ -334,7 +388,7 @@ async fn receive_multipart(
             }
             other => {
                 return Err(ApiError::new(
-                    "invalid_multipart",
+                    Code::InvalidMultipart,
                     format!(
                         "unknown part `{}`; send cloud, poses or trajectory, and params",
                         clean_filename(other)

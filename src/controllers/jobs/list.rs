@@ -7,7 +7,7 @@ use serde::Serialize;
 
 use crate::app::AppState;
 use crate::auth::Tenant;
-use crate::errors::ApiError;
+use crate::errors::{ApiError, Code};
 use crate::queue::{JobId, ListQuery};
 use crate::views::JobView;
 
@@ -27,7 +27,7 @@ pub async fn list(
     Tenant(tenant): Tenant,
     query: Result<Query<Vec<(String, String)>>, QueryRejection>,
 ) -> Result<Json<Page>, ApiError> {
-    let Query(pairs) = query.map_err(|e| ApiError::new("invalid_request", e.body_text()))?;
+    let Query(pairs) = query.map_err(|e| ApiError::new(Code::InvalidRequest, e.body_text()))?;
     let mut q = ListQuery {
         tenant,
         status: None,

@@ -7,7 +7,7 @@ use axum::response::{IntoResponse, Response};
 
 use crate::app::AppState;
 use crate::auth::Tenant;
-use crate::errors::ApiError;
+use crate::errors::{ApiError, Code};
 use crate::queue::JobStatus;
 use crate::storage::keys;
 
@@ -20,7 +20,7 @@ async fn result(
     let job = super::load(&state, &tenant, &id).await?;
     if job.status != JobStatus::Succeeded {
         return Err(ApiError::new(
-            "result_not_ready",
+            Code::ResultNotReady,
             format!("the job is {}, so it has no {name}", job.status.as_str()),
         ));
     }

@@ -3,7 +3,7 @@
 use bytes::{Bytes, BytesMut};
 use futures_util::StreamExt;
 
-use crate::errors::ApiError;
+use crate::errors::{ApiError, Code};
 use crate::storage::ByteStream;
 
 /// Bytes looked at to recognise a format.
@@ -66,18 +66,18 @@ pub async fn sniff(mut body: ByteStream<'_>) -> Result<(&'static str, ByteStream
             }
             Some(Err(e)) => {
                 return Err(ApiError::new(
-                    "invalid_request",
+                    Code::InvalidRequest,
                     format!("the upload was interrupted: {e}"),
                 ))
             }
         }
     }
     if head.is_empty() {
-        return Err(ApiError::new("missing_cloud", "the cloud is empty"));
+        return Err(ApiError::new(Code::MissingCloud, "the cloud is empty"));
     }
     let format = detect(&head).ok_or_else(|| {
         ApiError::new(
-            "unsupported_format",
+            Code::UnsupportedFormat,
             "the upload is not a point cloud asbuilt reads: PLY, E57, LAS/LAZ, XYZ or PTS",
         )
     })?;

@@ -23,8 +23,10 @@ use std::collections::HashMap;
 use serde::{Deserialize, Serialize};
 
 use crate::boundary::Boundary;
+use crate::cancel::{Cancel, Cancelled};
 use crate::geom::{self, P2};
 use crate::labeling::LabeledMesh;
+use crate::params::{within, ParamRange};
 use crate::plan::{Polygon, Wall};
 use crate::validity::{self, Grid};
 
@@ -32,40 +34,61 @@ use crate::validity::{self, Grid};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FittingParams {
-    /// Inlier distance threshold, metres (§3.5 leaves it open; about half d_s).
+    /// Inlier distance threshold, metres (§3.5 leaves it open; about half d_s). Range 0.001..=1.
     pub inlier_distance: f64,
-    /// Inlier normal angle threshold, radians (§3.5 leaves it open).
+    /// Inlier normal angle threshold, radians (§3.5 leaves it open). Range 0.01..=π/2.
     pub inlier_angle: f64,
     /// Minimum inliers for a model (§3.5: "a specified minimum number of inliers").
+    /// Range 3..=1000.
     pub min_inliers: usize,
-    /// Connected components of a model with fewer samples are reset (§3.5: 15).
+    /// Connected components of a model with fewer samples are reset (§3.5: 15). Range 0..=1000.
     pub min_component: usize,
     /// Unassigned samples within this many boundary hops join the nearest model (§3.5: 15).
+    /// Range 0..=200.
     pub grow_hops: usize,
     /// RANSAC iterations per model search (an upper bound; the search stops early once the
-    /// best model is found with 99% confidence).
+    /// best model is found with 99% confidence). Range 1..=100000.
     pub iterations: usize,
     /// Fit circles as well as lines (§3.5).
     pub circles: bool,
-    /// Circles larger than this are treated as lines, metres.
+    /// Circles larger than this are treated as lines, metres. Range 0.01..=1000.
     pub max_radius: f64,
     /// An arc that bows less than this from its chord over its inliers becomes a line, metres.
     /// Beyond the paper (which keeps whichever model has more inliers): on the real apartment,
     /// short straight walls came out as 5 m and 21 m arcs bowing 1 to 2 cm, within the inlier band.
+    /// Range 0..=1.
     pub min_arc_sagitta: f64,
     /// Two neighbouring models meet at their intersection only when it lies within this
     /// distance of both runs' end samples, metres (§3.5 "sharp corners"; the limit is ours).
+    /// Range 0..=10.
     pub max_corner_distance: f64,
     /// Beyond that distance, two runs still meet at their models' intersection when it lies
     /// within this many metres and no wall sample lies in the corner it adds or cuts, metres.
     /// Beyond the paper: a wall seen sparsely stops short of the corner, and the traced
-    /// boundary crosses the room diagonally there. 0 turns it off.
+    /// boundary crosses the room diagonally there. 0 turns it off. Range 0..=20.
     pub max_open_corner: f64,
     /// Arcs are densified so that chords stray at most this far from the circle, metres.
+    /// Range 0.0001..=1.
     pub arc_chord_error: f64,
     /// Random seed, so that runs repeat exactly.
     pub seed: u64,
 }
+
+/// The accepted values of [`FittingParams`] (see [`crate::params::ParamRange`]). The counts
+/// bound RANSAC's and growing's work per model and per sample; cancellation bounds the rest.
+pub const RANGES: &[ParamRange] = &[
+    ParamRange::new("inlier_distance", 0.001, 1.0, "m"),
+    ParamRange::new("inlier_angle", 0.01, std::f64::consts::FRAC_PI_2, "rad"),
+    ParamRange::new("min_inliers", 3.0, 1000.0, ""),
+    ParamRange::new("min_component", 0.0, 1000.0, ""),
+    ParamRange::new("grow_hops", 0.0, 200.0, ""),
+    ParamRange::new("iterations", 1.0, 100_000.0, ""),
+    ParamRange::new("max_radius", 0.01, 1000.0, "m"),
+    ParamRange::new("min_arc_sagitta", 0.0, 1.0, "m"),
+    ParamRange::new("max_corner_distance", 0.0, 10.0, "m"),
+    ParamRange::new("max_open_corner", 0.0, 20.0, "m"),
+    ParamRange::new("arc_chord_error", 0.0001, 1.0, "m"),
+];
 
 impl Default for FittingParams {
     fn default() -> Self {
@@ -101,6 +124,8 @@ pub struct FittedStory {
 pub enum FittingError {
     #[error("invalid fitting parameter `{name}`: {why}")]
     BadParam { name: &'static str, why: String },
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
 }
 
 /// The boundary vertices RANSAC works on, with the boundary edges between them.
@@ -123,55 +148,37 @@ impl FittingParams {
 }
 
 fn check_params(p: &FittingParams) -> Result<(), FittingError> {
-    let bad = |name, why: &str| {
-        Err(FittingError::BadParam {
-            name,
-            why: why.into(),
-        })
+    let check = |name, v: f64| {
+        within(RANGES, name, v).map_err(|(name, why)| FittingError::BadParam { name, why })
     };
-    if !(p.inlier_distance.is_finite() && p.inlier_distance > 0.0) {
-        return bad("inlier_distance", "must be a positive number of metres");
-    }
-    if !(p.inlier_angle > 0.0 && p.inlier_angle <= std::f64::consts::FRAC_PI_2) {
-        return bad("inlier_angle", "must be in (0, π/2] radians");
-    }
-    if p.min_inliers < 3 {
-        return bad("min_inliers", "must be at least 3");
-    }
-    if p.iterations == 0 {
-        return bad("iterations", "must be at least 1");
-    }
-    if p.max_radius.is_nan() || p.max_radius <= 0.0 {
-        return bad("max_radius", "must be positive");
-    }
-    if p.min_arc_sagitta.is_nan() || p.min_arc_sagitta < 0.0 {
-        return bad("min_arc_sagitta", "must not be negative");
-    }
-    if p.max_corner_distance.is_nan() || p.max_corner_distance < 0.0 {
-        return bad("max_corner_distance", "must not be negative");
-    }
-    if p.max_open_corner.is_nan() || p.max_open_corner < 0.0 {
-        return bad("max_open_corner", "must not be negative");
-    }
-    if !(p.arc_chord_error.is_finite() && p.arc_chord_error > 0.0) {
-        return bad("arc_chord_error", "must be a positive number of metres");
-    }
-    Ok(())
+    check("inlier_distance", p.inlier_distance)?;
+    check("inlier_angle", p.inlier_angle)?;
+    check("min_inliers", p.min_inliers as f64)?;
+    check("min_component", p.min_component as f64)?;
+    check("grow_hops", p.grow_hops as f64)?;
+    check("iterations", p.iterations as f64)?;
+    check("max_radius", p.max_radius)?;
+    check("min_arc_sagitta", p.min_arc_sagitta)?;
+    check("max_corner_distance", p.max_corner_distance)?;
+    check("max_open_corner", p.max_open_corner)?;
+    check("arc_chord_error", p.arc_chord_error)
 }
 
-/// Fits lines and circles to the boundary and rebuilds it on the models.
+/// Fits lines and circles to the boundary and rebuilds it on the models. Stops with
+/// `Cancelled` once `cancel` says so.
 pub fn fit_walls(
     labeled: &LabeledMesh,
     boundary: &Boundary,
     params: &FittingParams,
+    cancel: &Cancel,
 ) -> Result<FittedStory, FittingError> {
     check_params(params)?;
     let (samples, rings, exterior_of) = collect_samples(labeled, boundary);
-    let consensus = ransac::find_models(&samples, params);
+    let consensus = ransac::find_models(&samples, params, cancel)?;
     let models = consensus.models;
     let mut assigned = consensus.assigned;
     grow::reset_small_components(&samples, &mut assigned, params.min_component);
-    grow::grow(&samples, &models, &mut assigned, params.grow_hops);
+    grow::grow(&samples, &models, &mut assigned, params.grow_hops, cancel)?;
 
     let ring_pos: Vec<Vec<P2>> = rings
         .iter()

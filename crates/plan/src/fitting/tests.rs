@@ -1,5 +1,6 @@
 //! End-to-end tests of the fitting stage on hand-built labelings.
 
+use crate::cancel::Cancel;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -41,7 +42,7 @@ fn fit_seeded(
     clean_labels(&mut l, &CleanupParams::default());
     let b = trace_boundary(&l).unwrap();
     b.check(&l).unwrap();
-    let f = fit_walls(&l, &b, params).unwrap();
+    let f = fit_walls(&l, &b, params, &Cancel::never()).unwrap();
     assert_valid(&f);
     (l, f)
 }
@@ -211,7 +212,7 @@ fn bad_params_and_empty_boundary() {
         ..Default::default()
     };
     assert!(matches!(
-        fit_walls(&l, &b, &p),
+        fit_walls(&l, &b, &p, &Cancel::never()),
         Err(FittingError::BadParam {
             name: "inlier_distance",
             ..
@@ -221,8 +222,14 @@ fn bad_params_and_empty_boundary() {
         min_inliers: 1,
         ..Default::default()
     };
-    assert!(fit_walls(&l, &b, &p).is_err());
-    let empty = fit_walls(&l, &Boundary::default(), &FittingParams::default()).unwrap();
+    assert!(fit_walls(&l, &b, &p, &Cancel::never()).is_err());
+    let empty = fit_walls(
+        &l,
+        &Boundary::default(),
+        &FittingParams::default(),
+        &Cancel::never(),
+    )
+    .unwrap();
     assert!(empty.polygons.is_empty() && empty.walls.is_empty());
 }
 
@@ -230,7 +237,10 @@ fn bad_params_and_empty_boundary() {
 fn fitting_repeats_exactly() {
     let (l, f) = fit(&[room()], 0.005, &FittingParams::default());
     let b = trace_boundary(&l).unwrap();
-    assert_eq!(fit_walls(&l, &b, &FittingParams::default()).unwrap(), f);
+    assert_eq!(
+        fit_walls(&l, &b, &FittingParams::default(), &Cancel::never()).unwrap(),
+        f
+    );
 }
 
 /// `n` points of a circle (or an arc from `a0` sweeping `sweep`), as a polygon.
@@ -357,7 +367,7 @@ fn a_crossing_traced_boundary_is_resolved_not_a_panic() {
             holes: Vec::new(),
         }],
     };
-    let f = fit_walls(&l, &bow, &FittingParams::default()).unwrap();
+    let f = fit_walls(&l, &bow, &FittingParams::default(), &Cancel::never()).unwrap();
     assert_valid(&f);
     // The bow tie's counter-clockwise lobe (a quarter of the room) is what stays inside.
     assert_eq!(f.polygons.len(), 1, "{:?}", f.polygons);
@@ -425,7 +435,7 @@ fn room_with_an_unseen_corner(extra: &[P2], params: &FittingParams) -> FittedSto
     let mut l = label_by_rings(Mesh::build(&pts, &normals).unwrap(), &[cut]);
     clean_labels(&mut l, &CleanupParams::default());
     let b = trace_boundary(&l).unwrap();
-    let f = fit_walls(&l, &b, params).unwrap();
+    let f = fit_walls(&l, &b, params, &Cancel::never()).unwrap();
     assert_valid(&f);
     f
 }
