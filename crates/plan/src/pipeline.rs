@@ -159,24 +159,31 @@ pub(crate) fn plan_stories(
     let mut failures = Vec::new();
     for (i, story) in stories.iter().enumerate() {
         let at = |k: f64| (i as f64 + k) / stories.len() as f64;
+        // What was assumed about the floor or ceiling goes with the story's plan or failure.
+        let assumed = story.assumptions(cloud.origin[2]);
         match plan_story(story, params, progress, &mut timings, at, &mut *sample) {
             Ok((story_plan, used, story_notes)) => {
                 min_points_used.push(used);
                 notes.extend(
-                    story_notes
+                    assumed
                         .into_iter()
+                        .chain(story_notes)
                         .map(|n| format!("story {}: {n}", story.level)),
                 );
                 plans.push(story_plan);
             }
             Err(PlanError::Cancelled) => return Err(PlanError::Cancelled),
             Err(e) => {
+                let why = match assumed.is_empty() {
+                    true => e.to_string(),
+                    false => format!("{e} ({})", assumed.join("; ")),
+                };
                 notes.push(format!(
-                    "story {} (floor z {:.2}) skipped: {e}",
+                    "story {} (floor z {:.2}) skipped: {why}",
                     story.level,
                     story.floor_z + cloud.origin[2]
                 ));
-                failures.push(e.to_string());
+                failures.push(why);
             }
         }
     }

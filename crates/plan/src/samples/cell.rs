@@ -72,6 +72,9 @@ pub(super) struct Tests {
     min_top: usize,
     min_confidence: f64,
     density_aware: bool,
+    /// The story's ceiling is not flat: each neighbourhood's histogram runs from the floor to
+    /// its own highest point (see [`Self::run_binned`]).
+    local_top: bool,
     /// [`Self::required`] for `n` below its length; the last entry holds for every larger `n`.
     required: Vec<(u32, u32)>,
 }
@@ -83,13 +86,14 @@ impl Tests {
     pub fn new(story: &Story, params: &SamplesParams) -> Tests {
         let mut tests = Tests {
             floor: story.floor_z,
-            ceiling: story.ceiling_z,
+            ceiling: story.wall_top_z,
             min_wall_height: params.min_wall_height,
             bins: params.height_bins,
             min_filled: params.min_filled_bins,
             min_top: params.min_top_bins,
             min_confidence: params.min_confidence,
             density_aware: params.density_aware_histogram,
+            local_top: !story.flat_ceiling,
             required: Vec::new(),
         };
         // The requirements grow with n (the fill probability does) up to their value for
@@ -106,17 +110,26 @@ impl Tests {
         tests
     }
 
+    /// The least vertical support a neighbourhood may have: the minimum wall height, or under
+    /// a ceiling that is not flat half of it (knee walls under a pitched roof).
     pub fn min_wall_height(&self) -> f64 {
-        self.min_wall_height
+        if self.local_top {
+            self.min_wall_height / 2.0
+        } else {
+            self.min_wall_height
+        }
+    }
+
+    /// Whether each neighbourhood is measured against its own top (a story whose ceiling is
+    /// not flat); the stored bin codes and block masks then say nothing.
+    pub fn local_top(&self) -> bool {
+        self.local_top
     }
 
     /// The height bin of `z` over `[floor, ceiling]`, `None` outside. Points above a lower
     /// ceiling (rooms with a higher one) are left out rather than piled into the top bin.
     pub fn bin_of(&self, z: f32) -> Option<u32> {
-        let t = (z as f64 - self.floor) / (self.ceiling - self.floor);
-        (0.0..=1.0)
-            .contains(&t)
-            .then(|| ((t * self.bins as f64) as usize).min(self.bins - 1) as u32)
+        bin_in(z, self.floor, self.ceiling, self.bins).map(u32::from)
     }
 
     /// Bins required non-empty overall and among the top four, for `n` points in the
@@ -222,16 +235,30 @@ impl Tests {
         let (zmin, zmax) = pts.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |a, p| {
             (a.0.min(p[2]), a.1.max(p[2]))
         });
-        if ((zmax - zmin) as f64) < self.min_wall_height {
-            return Err(Reject::TooShort);
-        }
         let last = self.bins as u8 - 1;
-        let (mask, n) = bins
-            .iter()
-            .filter(|&&b| b != NO_BIN)
-            .fold((0u32, 0usize), |(m, n), &b| {
-                (m | 1 << b, n + usize::from(b != 0 && b != last))
-            });
+        let tally =
+            |(m, n): (u32, usize), b: u8| (m | 1 << b, n + usize::from(b != 0 && b != last));
+        let (mask, n) = if self.local_top {
+            // Under a sloped roof a wall runs from the floor up to where the roof meets it:
+            // the cell's own top. The support needed is the minimum wall height, or all the
+            // height there is where the roof is lower (but at least half the minimum).
+            let height = zmax as f64 - self.floor;
+            let support = ((zmax - zmin) as f64).min(height);
+            if height < self.min_wall_height() || support < height.min(self.min_wall_height) {
+                return Err(Reject::TooShort);
+            }
+            pts.iter()
+                .filter_map(|p| bin_in(p[2], self.floor, zmax as f64, self.bins))
+                .fold((0u32, 0usize), tally)
+        } else {
+            if ((zmax - zmin) as f64) < self.min_wall_height {
+                return Err(Reject::TooShort);
+            }
+            bins.iter()
+                .copied()
+                .filter(|&b| b != NO_BIN)
+                .fold((0u32, 0usize), tally)
+        };
         self.histogram(mask, n)?;
         let pos = median_in_cell(pts, lo, cell, within).ok_or(Reject::MedianOutside)?;
         let (normal, confidence) = pca_normal(pts).ok_or(Reject::Unaligned)?;
@@ -244,6 +271,15 @@ impl Tests {
             confidence,
         })
     }
+}
+
+/// The bin of `z` among `bins` equal bins over `[floor, top]`, `None` outside.
+#[inline]
+fn bin_in(z: f32, floor: f64, top: f64, bins: usize) -> Option<u8> {
+    let t = (z as f64 - floor) / (top - floor);
+    (0.0..=1.0)
+        .contains(&t)
+        .then(|| ((t * bins as f64) as usize).min(bins - 1) as u8)
 }
 
 /// The probability with which an evenly spread wall must pass the filled-bins tests.
@@ -344,13 +380,7 @@ mod tests {
     }
 
     fn tests_with(params: SamplesParams) -> Tests {
-        let story = Story {
-            level: 0,
-            floor_z: 0.0,
-            ceiling_z: 3.0,
-            z_min: -0.5,
-            z_max: 3.5,
-        };
+        let story = Story::flat(0, 0.0, 3.0, -0.5, 3.5);
         Tests::new(&story, &params)
     }
 

@@ -280,12 +280,12 @@ pub(crate) fn check_params(params: &SamplesParams, story: &Story) -> Result<(), 
     check_values(params)?;
     let bad = |name, why: String| Err(SamplesError::BadParam { name, why });
     let positive = |v: f64| v.is_finite() && v > 0.0;
-    if !positive(story.ceiling_z - story.floor_z) {
+    if !positive(story.wall_top_z - story.floor_z) {
         return bad(
             "story",
             format!(
                 "ceiling {} is not above floor {}",
-                story.ceiling_z, story.floor_z
+                story.wall_top_z, story.floor_z
             ),
         );
     }
@@ -395,6 +395,9 @@ fn prefilter(tests: &Tests, block: &Summary, min_points: usize) -> Result<(), Re
     }
     if ((block.zmax - block.zmin) as f64) < tests.min_wall_height() {
         return Err(Reject::TooShort);
+    }
+    if tests.local_top() {
+        return Ok(());
     }
     tests.histogram(block.mask, min_points)
 }
