@@ -240,11 +240,10 @@ impl Tests {
             |(m, n): (u32, usize), b: u8| (m | 1 << b, n + usize::from(b != 0 && b != last));
         let (mask, n) = if self.local_top {
             // Under a sloped roof a wall runs from the floor up to where the roof meets it:
-            // the cell's own top. The support needed is the minimum wall height, or all the
-            // height there is where the roof is lower (but at least half the minimum).
+            // the cell's own top, at least half the minimum wall height up. The histogram
+            // over that height then asks the wall to fill it.
             let height = zmax as f64 - self.floor;
-            let support = ((zmax - zmin) as f64).min(height);
-            if height < self.min_wall_height() || support < height.min(self.min_wall_height) {
+            if height.min((zmax - zmin) as f64) < self.min_wall_height() {
                 return Err(Reject::TooShort);
             }
             pts.iter()
