@@ -19,7 +19,7 @@ use asbuilt_plan::fitting::fit_walls;
 use asbuilt_plan::geom::P2;
 use asbuilt_plan::io::{self, poses};
 use asbuilt_plan::labeling::{label, LabeledMesh};
-use asbuilt_plan::samples::sample_walls;
+use asbuilt_plan::samples::{sample_walls, SpacingProbe};
 use asbuilt_plan::simulate::{simulate, BuildingKind, ScanOptions};
 use asbuilt_plan::smoothing::smooth_samples;
 use asbuilt_plan::stories::split_stories;
@@ -89,13 +89,13 @@ fn main() {
     );
     for p in &cloud.xyz {
         if (lo..hi).contains(&(p[2] as f64)) {
-            png.dot([p[0] as f64, p[1] as f64], 0, [150, 150, 150]);
+            png.dot([p[0] as f64, p[1] as f64], 1, [120, 120, 120]);
         }
     }
     if let Ok(plan) = &plan {
         if let Some(s) = plan.stories.iter().find(|s| s.level == level) {
             for p in &s.samples {
-                png.dot(*p, 1, [40, 90, 220]);
+                png.dot(*p, 2, [40, 90, 220]);
             }
             for poly in &s.polygons {
                 for ring in std::iter::once(&poly.exterior).chain(&poly.holes) {
@@ -116,6 +116,8 @@ fn main() {
         }
     }
     std::fs::write(out.join("plan.png"), png.encode()).unwrap();
+    // The stages below run with the parameters the plan derived from the point spacing.
+    let (params, _) = params.derive(SpacingProbe::of(&cloud.xyz).spacing());
     let mut samples = sample_walls(&cloud, story, &params.samples).unwrap();
     smooth_samples(&mut samples, params.samples.cell_size, &params.smoothing).unwrap();
     let mut labeled = label(&samples, &params.labeling).unwrap();

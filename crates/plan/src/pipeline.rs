@@ -10,7 +10,9 @@ use crate::labeling::{label_with_report, LabelingError};
 use crate::params::Params;
 use crate::plan::{FloorPlan, InputSummary, StoryPlan};
 use crate::progress::{Progress, Stage};
-use crate::samples::{check_params, sample_walls_in, SamplesError, StoryBounds, WallSamples};
+use crate::samples::{
+    check_params, sample_walls_in, SamplesError, SpacingProbe, StoryBounds, WallSamples,
+};
 use crate::smoothing::{smooth_samples, SmoothingError};
 use crate::stories::{split_cloud_stories, StoriesError, Story};
 
@@ -102,6 +104,10 @@ pub fn plan(
     cloud.check().map_err(PlanError::BadCloud)?;
     let mut timings = Timings::default();
     progress.report(Stage::Stories, 0.0);
+    // The point spacing chooses the grid's scale (and what follows from it).
+    let spacing = timings.time(Stage::Samples, || SpacingProbe::of(&cloud.xyz).spacing());
+    let (params, reported) = params.derive(spacing);
+    let params = &params;
     let stories = timings.time(Stage::Stories, || {
         split_cloud_stories(&cloud.xyz, &params.stories)
     })?;
@@ -120,6 +126,7 @@ pub fn plan(
         &summary,
         &stories,
         params,
+        reported,
         progress,
         timings,
         start,
@@ -141,11 +148,14 @@ impl<'a> CloudSummary<'a> {
 }
 
 /// Every stage after the stories, story by story; `sample` gives a story's wall samples.
-/// Stories that fail are noted and skipped; the plan fails only when none succeeds.
+/// Stories that fail are noted and skipped; the plan fails only when none succeeds. `params`
+/// are the ones the run uses, `parameters` what the plan reports of them ([`Params::derive`]).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn plan_stories(
     input: &CloudSummary<'_>,
     stories: &[Story],
     params: &Params,
+    mut parameters: serde_json::Value,
     progress: &mut dyn Progress,
     mut timings: Timings,
     start: Instant,
@@ -154,7 +164,6 @@ pub(crate) fn plan_stories(
     let cloud = input.cloud;
     let mut notes = Vec::new();
     let mut plans = Vec::new();
-    let mut parameters = params.to_json();
     let mut min_points_used = Vec::new();
     let mut failures = Vec::new();
     for (i, story) in stories.iter().enumerate() {

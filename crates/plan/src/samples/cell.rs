@@ -75,6 +75,9 @@ pub(super) struct Tests {
     /// The story's ceiling is not flat: each neighbourhood's histogram runs from the floor to
     /// its own highest point (see [`Self::run_binned`]).
     local_top: bool,
+    /// The story's floor was not seen: each neighbourhood's histogram runs from its own lowest
+    /// point to the ceiling.
+    local_bottom: bool,
     /// [`Self::required`] for `n` below its length; the last entry holds for every larger `n`.
     required: Vec<(u32, u32)>,
 }
@@ -94,6 +97,7 @@ impl Tests {
             min_confidence: params.min_confidence,
             density_aware: params.density_aware_histogram,
             local_top: !story.flat_ceiling,
+            local_bottom: !story.floor_seen,
             required: Vec::new(),
         };
         // The requirements grow with n (the fill probability does) up to their value for
@@ -110,20 +114,22 @@ impl Tests {
         tests
     }
 
-    /// The least vertical support a neighbourhood may have: the minimum wall height, or under
-    /// a ceiling that is not flat half of it (knee walls under a pitched roof).
+    /// The least vertical support a neighbourhood may have: the minimum wall height, or half
+    /// of it where a neighbourhood is measured against its own top or bottom (knee walls under
+    /// a pitched roof; walls seen only from above where the floor was not).
     pub fn min_wall_height(&self) -> f64 {
-        if self.local_top {
+        if self.local() {
             self.min_wall_height / 2.0
         } else {
             self.min_wall_height
         }
     }
 
-    /// Whether each neighbourhood is measured against its own top (a story whose ceiling is
-    /// not flat); the stored bin codes and block masks then say nothing.
-    pub fn local_top(&self) -> bool {
-        self.local_top
+    /// Whether each neighbourhood is measured against its own top or bottom (a story whose
+    /// ceiling is not flat, or whose floor was not seen); the stored bin codes and block masks
+    /// then say nothing.
+    pub fn local(&self) -> bool {
+        self.local_top || self.local_bottom
     }
 
     /// The height bin of `z` over `[floor, ceiling]`, `None` outside. Points above a lower
@@ -238,16 +244,25 @@ impl Tests {
         let last = self.bins as u8 - 1;
         let tally =
             |(m, n): (u32, usize), b: u8| (m | 1 << b, n + usize::from(b != 0 && b != last));
-        let (mask, n) = if self.local_top {
+        let (mask, n) = if self.local() {
             // Under a sloped roof a wall runs from the floor up to where the roof meets it:
-            // the cell's own top, at least half the minimum wall height up. The histogram
-            // over that height then asks the wall to fill it.
-            let height = zmax as f64 - self.floor;
-            if height.min((zmax - zmin) as f64) < self.min_wall_height() {
+            // the cell's own top. Where the floor was not seen, a wall is seen from its own
+            // bottom, at least the minimum wall height under the ceiling (lamps and ducts
+            // hang higher), up to its own top (a suspended ceiling may hide where it meets the
+            // slab). Either way it spans at least half the minimum wall height, and the
+            // histogram over that span asks the wall to fill it.
+            let bottom = if self.local_bottom {
+                zmin as f64
+            } else {
+                self.floor
+            };
+            let top = zmax as f64;
+            let deep = !self.local_bottom || self.ceiling - bottom >= self.min_wall_height;
+            if !deep || (top - bottom).min((zmax - zmin) as f64) < self.min_wall_height() {
                 return Err(Reject::TooShort);
             }
             pts.iter()
-                .filter_map(|p| bin_in(p[2], self.floor, zmax as f64, self.bins))
+                .filter_map(|p| bin_in(p[2], bottom, top, self.bins))
                 .fold((0u32, 0usize), tally)
         } else {
             if ((zmax - zmin) as f64) < self.min_wall_height {
@@ -539,6 +554,61 @@ mod tests {
         assert!(n[0] > 0.0 && (crate::geom::norm(n) - 1.0).abs() < 1e-12);
         assert!((c - 1.0).abs() < 1e-9);
         assert_eq!(pca_normal(&[[1.0, 1.0, 0.0]; 3]), None);
+    }
+
+    /// Ten columns of points along y = 0.02 from `z0` up to `z1`: a wall, or (`wall` false)
+    /// only its lowest and highest rows, a floor with a roof over it.
+    fn column(z0: f32, z1: f32, wall: bool) -> Vec<[f32; 3]> {
+        let mut pts = Vec::new();
+        for a in 0..10 {
+            let x = -0.05 + 0.01 * a as f32;
+            for b in 0..30 {
+                let z = z0 + (z1 - z0) * b as f32 / 29.0;
+                if wall || b == 0 || b == 29 {
+                    pts.push([x, 0.02 + if b % 2 == 0 { 0.002 } else { -0.002 }, z]);
+                }
+            }
+        }
+        pts
+    }
+
+    #[test]
+    fn under_a_sloped_roof_a_wall_is_measured_against_its_own_top() {
+        // An attic: floor at 2.6, the story's points reaching 6.0 under the ridge.
+        let mut story = Story::flat(1, 2.6, 6.0, 2.5, 6.1);
+        story.flat_ceiling = false;
+        let t = Tests::new(&story, &SamplesParams::default());
+        let lo = [-0.025, 0.0];
+        // A knee wall 1.2 m high, to where the roof meets it: a wall.
+        assert!(t.run(&column(2.6, 3.8, true), lo, 0.05, 50).is_ok());
+        // A gable 3 m high: a wall too.
+        assert!(t.run(&column(2.6, 5.6, true), lo, 0.05, 50).is_ok());
+        // Floor and roof with nothing between: not a wall.
+        assert_eq!(
+            t.run(&column(2.6, 4.5, false), lo, 0.05, 10),
+            Err(Reject::Gappy)
+        );
+        // Where the roof comes down to 0.8 m: too low for a wall.
+        assert_eq!(
+            t.run(&column(2.6, 3.4, true), lo, 0.05, 50),
+            Err(Reject::TooShort)
+        );
+    }
+
+    #[test]
+    fn without_a_floor_a_wall_reaches_down_from_the_ceiling() {
+        // A capture of the upper walls: the floor assumed at 1.6, the ceiling at 4.45.
+        let mut story = Story::flat(0, 1.6, 4.45, 1.5, 4.6);
+        story.floor_seen = false;
+        let t = Tests::new(&story, &SamplesParams::default());
+        let lo = [-0.025, 0.0];
+        // A wall seen from 2.1 up to a suspended ceiling at 3.9.
+        assert!(t.run(&column(2.1, 3.9, true), lo, 0.05, 50).is_ok());
+        // A duct hanging 1.1 m under the slab: too high up to be a wall.
+        assert_eq!(
+            t.run(&column(3.35, 4.45, true), lo, 0.05, 50),
+            Err(Reject::TooShort)
+        );
     }
 
     #[test]

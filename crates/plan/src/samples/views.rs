@@ -383,6 +383,34 @@ mod tests {
     }
 
     #[test]
+    fn a_gallery_scanner_is_no_viewpoint_of_the_story_below() {
+        // The ground floor of the house, its range running up to the roof as when the
+        // attic is not found: a scanner on the gallery at 4.1 m stands above its ceilings.
+        let mut ground = Story::flat(0, 0.0, 2.45, -0.1, 6.1);
+        ground.top_z = 2.6;
+        let cloud = PointCloud {
+            xyz: vec![[0.0, 0.0, 1.0]; 2],
+            scan: vec![0, 1],
+            scan_ids: vec![1, 2],
+            viewpoints: Viewpoints::Static(vec![
+                pose(1, [2.0, 2.0, 1.5]),
+                pose(2, [4.45, 4.0, 4.1]),
+            ]),
+            ..Default::default()
+        };
+        assert_eq!(Views::new(&cloud, &ground).viewpoints, vec![[2.0, 2.0]]);
+        // Scanners far from every story (poses with unknown heights) are all listed.
+        let far = PointCloud {
+            viewpoints: Viewpoints::Static(vec![
+                pose(1, [2.0, 2.0, 101.5]),
+                pose(2, [4.45, 4.0, 104.1]),
+            ]),
+            ..cloud
+        };
+        assert_eq!(Views::new(&far, &ground).viewpoints.len(), 2);
+    }
+
+    #[test]
     fn trajectory_positions_are_interpolated_and_thinned() {
         let traj: Vec<TrajectorySample> = (0..=10)
             .map(|k| TrajectorySample {
