@@ -23,6 +23,7 @@ use asbuilt_plan::samples::{sample_walls, SpacingProbe};
 use asbuilt_plan::simulate::{simulate, BuildingKind, ScanOptions};
 use asbuilt_plan::smoothing::smooth_samples;
 use asbuilt_plan::stories::split_stories;
+use asbuilt_plan::Cancel;
 use asbuilt_plan::Params;
 
 fn main() {
@@ -118,9 +119,15 @@ fn main() {
     std::fs::write(out.join("plan.png"), png.encode()).unwrap();
     // The stages below run with the parameters the plan derived from the point spacing.
     let (params, _) = params.derive(SpacingProbe::of(&cloud.xyz).spacing());
-    let mut samples = sample_walls(&cloud, story, &params.samples).unwrap();
-    smooth_samples(&mut samples, params.samples.cell_size, &params.smoothing).unwrap();
-    let mut labeled = label(&samples, &params.labeling).unwrap();
+    let mut samples = sample_walls(&cloud, story, &params.samples, &Cancel::never()).unwrap();
+    smooth_samples(
+        &mut samples,
+        params.samples.cell_size,
+        &params.smoothing,
+        &Cancel::never(),
+    )
+    .unwrap();
+    let mut labeled = label(&samples, &params.labeling, &Cancel::never()).unwrap();
     let poses = samples.viewpoints.clone();
     std::fs::write(
         out.join("labels.svg"),
@@ -135,7 +142,7 @@ fn main() {
     )
     .unwrap();
     let boundary = trace_boundary(&labeled).unwrap();
-    let fitted = fit_walls(&labeled, &boundary, &params.fitting).unwrap();
+    let fitted = fit_walls(&labeled, &boundary, &params.fitting, &Cancel::never()).unwrap();
     let rings: Vec<Vec<P2>> = fitted
         .polygons
         .iter()

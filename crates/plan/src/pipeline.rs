@@ -3,6 +3,7 @@
 use std::time::Instant;
 
 use crate::boundary::{trace_boundary, BoundaryError};
+use crate::cancel::{Cancel, Cancelled};
 use crate::cleanup::clean_labels;
 use crate::cloud::PointCloud;
 use crate::fitting::{fit_walls, FittingError};
@@ -15,6 +16,7 @@ use crate::samples::{
 };
 use crate::smoothing::{smooth_samples, SmoothingError};
 use crate::stories::{split_cloud_stories, StoriesError, Story};
+use crate::validity::{make_valid, Grid};
 
 /// Why a plan could not be made. Each variant names the stage.
 #[derive(Debug, thiserror::Error)]
@@ -37,8 +39,9 @@ pub enum PlanError {
     Fitting(#[from] FittingError),
     #[error("no story produced a plan: {0}")]
     NoPlan(String),
-    #[error("cancelled")]
-    Cancelled,
+    /// The caller's [`Cancel`] stopped the run (whichever stage it was in).
+    #[error("{0}")]
+    Cancelled(#[from] Cancelled),
 }
 
 impl PlanError {
@@ -54,13 +57,36 @@ impl PlanError {
             PlanError::Boundary(_) => "boundary_failed",
             PlanError::Fitting(_) => "fitting_failed",
             PlanError::NoPlan(_) => "no_plan",
-            PlanError::Cancelled => "cancelled",
+            PlanError::Cancelled(c) => c.code(),
+        }
+    }
+
+    /// Why the run was stopped from outside, if it was: a stage's own `Cancelled` variant is
+    /// the same stop as [`PlanError::Cancelled`].
+    pub fn cancelled(&self) -> Option<Cancelled> {
+        match self {
+            PlanError::Cancelled(c)
+            | PlanError::Samples(SamplesError::Cancelled(c))
+            | PlanError::Smoothing(SmoothingError::Cancelled(c))
+            | PlanError::Labeling(LabelingError::Cancelled(c))
+            | PlanError::Fitting(FittingError::Cancelled(c)) => Some(*c),
+            _ => None,
+        }
+    }
+
+    /// Lifts a stage's `Cancelled` to [`PlanError::Cancelled`], so callers match one variant.
+    fn lift(self) -> PlanError {
+        match self.cancelled() {
+            Some(c) => PlanError::Cancelled(c),
+            None => self,
         }
     }
 }
 
 /// The `timings_ms` key of the Delaunay triangulation, the first part of labeling (§3.3).
 pub const TRIANGULATE: &str = "triangulate";
+/// The `timings_ms` key of the last step: every polygon made OGC-valid on the output grid.
+pub const VALIDITY: &str = "validity";
 
 /// Accumulates per-stage wall time in pipeline order.
 #[derive(Default)]
@@ -98,6 +124,7 @@ pub fn plan(
     progress: &mut dyn Progress,
 ) -> Result<FloorPlan, PlanError> {
     let start = Instant::now();
+    let cancel = progress.cancel();
     if cloud.is_empty() {
         return Err(PlanError::EmptyCloud);
     }
@@ -108,18 +135,22 @@ pub fn plan(
     let spacing = timings.time(Stage::Samples, || SpacingProbe::of(&cloud.xyz).spacing());
     let (params, reported) = params.derive(spacing);
     let params = &params;
+    // Splitting the stories and measuring their bounds are a few linear passes over the
+    // points: checked between them, not inside.
     let stories = timings.time(Stage::Stories, || {
         split_cloud_stories(&cloud.xyz, &params.stories)
     })?;
+    cancel.check()?;
     // One pass finds where every story's grid lies.
     let (bounds, blocks) = timings.time(Stage::Samples, || {
         StoryBounds::measure_all(&cloud.xyz, &stories)
     });
-    let mut sample = |story: &Story| {
+    cancel.check()?;
+    let mut sample = |story: &Story, cancel: &Cancel| {
         let p = &params.samples;
         check_params(p, story)?;
         let frame = bounds[story.level].frame(story, p.cell_size)?;
-        sample_walls_in(cloud, story, p, &frame, Some(&blocks.spans(story)))
+        sample_walls_in(cloud, story, p, &frame, Some(&blocks.spans(story)), cancel)
     };
     let summary = CloudSummary::of(cloud, cloud.len() as u64);
     plan_stories(
@@ -148,8 +179,9 @@ impl<'a> CloudSummary<'a> {
 }
 
 /// Every stage after the stories, story by story; `sample` gives a story's wall samples.
-/// Stories that fail are noted and skipped; the plan fails only when none succeeds. `params`
-/// are the ones the run uses, `parameters` what the plan reports of them ([`Params::derive`]).
+/// Stories that fail are noted and skipped; the plan fails only when none succeeds. A stop
+/// from `progress`'s [`Cancel`] ends the whole run as [`PlanError::Cancelled`]. `params` are
+/// the ones the run uses, `parameters` what the plan reports of them ([`Params::derive`]).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn plan_stories(
     input: &CloudSummary<'_>,
@@ -159,9 +191,10 @@ pub(crate) fn plan_stories(
     progress: &mut dyn Progress,
     mut timings: Timings,
     start: Instant,
-    sample: &mut dyn FnMut(&Story) -> Result<WallSamples, SamplesError>,
+    sample: &mut dyn FnMut(&Story, &Cancel) -> Result<WallSamples, SamplesError>,
 ) -> Result<FloorPlan, PlanError> {
     let cloud = input.cloud;
+    let cancel = progress.cancel();
     let mut notes = Vec::new();
     let mut plans = Vec::new();
     let mut min_points_used = Vec::new();
@@ -170,7 +203,19 @@ pub(crate) fn plan_stories(
         let at = |k: f64| (i as f64 + k) / stories.len() as f64;
         // What was assumed about the floor or ceiling goes with the story's plan or failure.
         let assumed = story.assumptions(cloud.origin[2]);
-        match plan_story(story, params, progress, &mut timings, at, &mut *sample) {
+        let grid = Grid::world(cloud.origin);
+        match plan_story(
+            story,
+            params,
+            &grid,
+            progress,
+            &cancel,
+            &mut timings,
+            at,
+            &mut *sample,
+        )
+        .map_err(PlanError::lift)
+        {
             Ok((story_plan, used, story_notes)) => {
                 min_points_used.push(used);
                 notes.extend(
@@ -181,7 +226,7 @@ pub(crate) fn plan_stories(
                 );
                 plans.push(story_plan);
             }
-            Err(PlanError::Cancelled) => return Err(PlanError::Cancelled),
+            Err(PlanError::Cancelled(c)) => return Err(PlanError::Cancelled(c)),
             Err(e) => {
                 let why = match assumed.is_empty() {
                     true => e.to_string(),
@@ -225,30 +270,33 @@ pub(crate) fn plan_stories(
 fn plan_story(
     story: &Story,
     params: &Params,
+    grid: &Grid,
     progress: &mut dyn Progress,
+    cancel: &Cancel,
     timings: &mut Timings,
     at: impl Fn(f64) -> f64,
-    sample: &mut dyn FnMut(&Story) -> Result<WallSamples, SamplesError>,
+    sample: &mut dyn FnMut(&Story, &Cancel) -> Result<WallSamples, SamplesError>,
 ) -> Result<(StoryPlan, usize, Vec<String>), PlanError> {
     let mut step = |stage: Stage, k: f64| {
         progress.report(stage, at(k));
-        if progress.cancelled() {
-            Err(PlanError::Cancelled)
-        } else {
-            Ok(())
-        }
+        cancel.check()
     };
     step(Stage::Samples, 0.0)?;
-    let mut samples = timings.time(Stage::Samples, || sample(story))?;
+    let mut samples = timings.time(Stage::Samples, || sample(story, cancel))?;
     step(Stage::Smoothing, 0.4)?;
     timings.time(Stage::Smoothing, || {
-        smooth_samples(&mut samples, params.samples.cell_size, &params.smoothing)
+        smooth_samples(
+            &mut samples,
+            params.samples.cell_size,
+            &params.smoothing,
+            cancel,
+        )
     })?;
     step(Stage::Labeling, 0.5)?;
     // The triangulation is reported on its own, ahead of the labeling proper.
     timings.add(TRIANGULATE, 0.0);
     let start = Instant::now();
-    let (mut labeled, report) = label_with_report(&samples, &params.labeling)?;
+    let (mut labeled, report) = label_with_report(&samples, &params.labeling, cancel)?;
     let mesh_ms = report.timings.mesh_ms;
     timings.add(TRIANGULATE, mesh_ms);
     timings.add(
@@ -262,15 +310,21 @@ fn plan_story(
     let boundary = timings.time(Stage::Cleanup, || trace_boundary(&labeled))?;
     step(Stage::Fitting, 0.9)?;
     let fitted = timings.time(Stage::Fitting, || {
-        fit_walls(&labeled, &boundary, &params.fitting)
+        fit_walls(&labeled, &boundary, &params.fitting, cancel)
     })?;
+    let start = Instant::now();
+    let traced = boundary.to_polygons(&labeled.mesh);
+    let valid = make_valid(&fitted.polygons, &traced, grid);
+    timings.add(VALIDITY, start.elapsed().as_secs_f64() * 1e3);
+    let mut notes = fitted.notes;
+    notes.extend(valid.notes);
     let plan = StoryPlan {
         level: story.level,
         floor_z: story.floor_z,
         ceiling_z: story.ceiling_z,
-        polygons: fitted.polygons,
+        polygons: valid.polygons,
         walls: fitted.walls,
         samples: samples.samples.iter().map(|s| s.pos).collect(),
     };
-    Ok((plan, samples.min_points_used, fitted.notes))
+    Ok((plan, samples.min_points_used, notes))
 }
