@@ -220,7 +220,8 @@ pub(super) fn mezzanine_hall() -> Vec<StoryModel> {
         ],
         doors: vec![Rect::new(13.9, 10.0, 14.0, 10.9)],
         solid: vec![column],
-        stations: vec![[3.0, 10.0], [17.0, 10.0]],
+        // Stations within 10 m of every wall they should capture (§3.1's range).
+        stations: vec![[3.0, 10.0], [10.5, 10.5], [17.0, 10.0]],
         route: vec![[2.0, 10.45], [18.0, 10.45], [2.0, 10.45]],
         ..Default::default()
     };

@@ -110,7 +110,9 @@ pub(super) fn partitions_story() -> StoryModel {
         tables: vec![Rect::new(2.5, 0.3, 3.7, 1.0)],
         stations: vec![
             [2.5, 2.2],
+            // Room B's stub wall hides a corner from either side: a station on each.
             [5.2, 2.5],
+            [7.2, 2.0],
             [9.8, 1.8],
             [3.0, 5.85],
             [9.0, 5.85],
