@@ -2,6 +2,7 @@
 # The end-to-end cases of crates/plan/tests/e2e.rs through the score example, one block of
 # scores per case (IoU, boundary error, completeness, heights, watertightness, arc error).
 #   cargo build --release -p asbuilt-plan --example score && benches/accuracy.sh
+#   (benches/accuracy.sh | grep "^row" prints the table alone)
 set -u
 S=${ASBUILT_SCORE:-target/release/examples/score}
 run() { echo "### $*"; "$S" "$@" 2>&1 | tail -n 20; }
@@ -15,3 +16,19 @@ run curved_lobby 600000 21 --registration 0.01,0.1
 run rotated_l 400000 21 --registration 0.01,0.1
 run office_3story 1200000 17 --registration 0.01,0.1
 run curved_lobby 500000 18 --mobile
+
+# The classes of issue 12, with poses and without; `row |` lines form the table (class, poses,
+# stories found/true (+ invented), worst IoU, worst boundary p95 m, worst completeness at 5 cm,
+# worst floor/ceiling error m, derived cell size).
+for poses in "" --no-poses; do
+  run square_room 300000 11 $poses
+  run office_3story 1500000 12 $poses
+  run curved_lobby 600000 13 --noise 0.002 $poses
+  run rotated_l 400000 14 $poses
+  run attic_house 600000 31 $poses
+  run mezzanine_hall 600000 32 $poses
+  run dense_office 1140000 33 $poses
+  run dense_office_voxels 4000000 34 $poses
+  run ceiling_only 300000 35 $poses
+  run partitions 400000 36 $poses
+done

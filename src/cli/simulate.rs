@@ -28,7 +28,8 @@ use serde_json::json;
 
 #[derive(clap::Args)]
 pub struct SimulateArgs {
-    /// The building: square_room, office_3story, curved_lobby or rotated_l.
+    /// The building: square_room, office_3story, curved_lobby, rotated_l, attic_house,
+    /// mezzanine_hall, dense_office, dense_office_voxels, ceiling_only or partitions.
     #[arg(long, value_name = "NAME")]
     pub building: String,
     /// Points to generate.
@@ -49,6 +50,9 @@ pub struct SimulateArgs {
     /// World coordinates of the building's origin, e.g. `500000,4100000,120`.
     #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub offset: Option<String>,
+    /// Reduce the cloud to the centres of the occupied voxels of this size, metres.
+    #[arg(long, value_name = "METRES")]
+    pub voxel: Option<f64>,
     /// Write the cloud as ASCII PLY instead of binary.
     #[arg(long)]
     pub ascii: bool,
@@ -84,6 +88,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
         registration,
         mobile: args.mobile,
         offset,
+        voxel: args.voxel,
     };
     let sim = simulate(kind, &options)?;
     std::fs::create_dir_all(&args.out)

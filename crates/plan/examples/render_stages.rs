@@ -6,6 +6,11 @@
 //! view is in the cloud's local frame). It writes `labels.svg` (after labeling), `cleaned.svg` (after
 //! cleanup) and `fitted.svg` (the final polygons over the cleaned labels, truth in red).
 //! Triangles: inside light blue, outside white, forced inside dark blue, forced outside grey.
+//!
+//! It also writes `plan.png`: the plan the pipeline makes (`asbuilt_plan::plan`, derived
+//! parameters and all) for that level, in black, over the story's points in a slice from 35 %
+//! to 65 % of its height (grey), with its wall samples (blue), scanners (orange) and the truth
+//! (red).
 
 use asbuilt_plan::boundary::trace_boundary;
 use asbuilt_plan::cleanup::clean_labels;
@@ -14,7 +19,7 @@ use asbuilt_plan::fitting::fit_walls;
 use asbuilt_plan::geom::P2;
 use asbuilt_plan::io::{self, poses};
 use asbuilt_plan::labeling::{label, LabeledMesh};
-use asbuilt_plan::samples::sample_walls;
+use asbuilt_plan::samples::{sample_walls, SpacingProbe};
 use asbuilt_plan::simulate::{random, scan, BuildingKind, ScanOptions};
 use asbuilt_plan::smoothing::smooth_samples;
 use asbuilt_plan::stories::split_stories;
@@ -42,6 +47,7 @@ fn main() {
                 points: args[1].parse().unwrap(),
                 seed: args[2].parse().unwrap(),
                 mobile: args.iter().any(|a| a == "--mobile"),
+                voxel: BuildingKind::from_name(&args[0]).and_then(BuildingKind::voxel),
                 ..Default::default()
             };
             let sim = scan(&building, &options).unwrap();
@@ -58,6 +64,14 @@ fn main() {
         cloud.scan_ids.clear();
     }
     let params = Params::default();
+    let plan = asbuilt_plan::plan(&cloud, &params, &mut asbuilt_plan::progress::NoProgress);
+    match &plan {
+        Ok(plan) => {
+            eprintln!("notes: {:?}", plan.notes);
+            eprintln!("parameters: {}", plan.parameters["samples"]);
+        }
+        Err(e) => eprintln!("plan failed: {e}"),
+    }
     let view: Option<[f64; 4]> = args.iter().position(|a| a == "--view").map(|i| {
         let v: Vec<f64> = args[i + 1].split(',').map(|x| x.parse().unwrap()).collect();
         [v[0], v[1], v[2], v[3]]
@@ -65,6 +79,49 @@ fn main() {
     let z: Vec<f32> = cloud.xyz.iter().map(|p| p[2]).collect();
     let stories = split_stories(&z, &params.stories).unwrap();
     let story = &stories[level];
+    let truth: Vec<Vec<P2>> = truth_stories.as_ref().map_or(Vec::new(), |t| {
+        t[level]
+            .polygons
+            .iter()
+            .flat_map(|p| std::iter::once(p.exterior.clone()).chain(p.holes.clone()))
+            .collect()
+    });
+    let mut png = Raster::new(&cloud, story, view);
+    let (lo, hi) = (
+        story.floor_z + 0.35 * (story.top_z - story.floor_z),
+        story.floor_z + 0.65 * (story.top_z - story.floor_z),
+    );
+    for p in &cloud.xyz {
+        if (lo..hi).contains(&(p[2] as f64)) {
+            png.dot([p[0] as f64, p[1] as f64], 1, [120, 120, 120]);
+        }
+    }
+    if let Ok(plan) = &plan {
+        if let Some(s) = plan.stories.iter().find(|s| s.level == level) {
+            for p in &s.samples {
+                png.dot(*p, 2, [40, 90, 220]);
+            }
+            for poly in &s.polygons {
+                for ring in std::iter::once(&poly.exterior).chain(&poly.holes) {
+                    png.ring(ring, [0, 0, 0]);
+                }
+            }
+        }
+    }
+    for ring in &truth {
+        png.ring(ring, [220, 30, 30]);
+    }
+    if let Viewpoints::Static(poses) = &cloud.viewpoints {
+        for p in poses
+            .iter()
+            .filter(|p| story.holds_viewpoint(p.position[2]))
+        {
+            png.dot([p.position[0], p.position[1]], 4, [255, 140, 0]);
+        }
+    }
+    std::fs::write(out.join("plan.png"), png.encode()).unwrap();
+    // The stages below run with the parameters the plan derived from the point spacing.
+    let (params, _) = params.derive(SpacingProbe::of(&cloud.xyz).spacing());
     let mut samples = sample_walls(&cloud, story, &params.samples, &Cancel::never()).unwrap();
     smooth_samples(
         &mut samples,
@@ -74,13 +131,6 @@ fn main() {
     )
     .unwrap();
     let mut labeled = label(&samples, &params.labeling, &Cancel::never()).unwrap();
-    let truth: Vec<Vec<P2>> = truth_stories.map_or(Vec::new(), |t| {
-        t[level]
-            .polygons
-            .iter()
-            .flat_map(|p| std::iter::once(p.exterior.clone()).chain(p.holes.clone()))
-            .collect()
-    });
     let poses = samples.viewpoints.clone();
     std::fs::write(
         out.join("labels.svg"),
@@ -175,4 +225,141 @@ fn draw(
         o += &format!(r#"<circle cx="{x}" cy="{y}" r="5" fill="orange"/>"#);
     }
     o + "</svg>"
+}
+
+/// An RGB picture of a story from above, 2400 pixels on its longer side.
+struct Raster {
+    lo: P2,
+    hi: P2,
+    scale: f64,
+    w: usize,
+    h: usize,
+    rgb: Vec<u8>,
+}
+
+impl Raster {
+    /// Spans the story's points (or `view`), with a margin.
+    fn new(
+        cloud: &asbuilt_plan::cloud::PointCloud,
+        story: &asbuilt_plan::stories::Story,
+        view: Option<[f64; 4]>,
+    ) -> Raster {
+        let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
+        for p in &cloud.xyz {
+            if (story.z_min..story.z_max).contains(&(p[2] as f64)) {
+                for k in 0..2 {
+                    lo[k] = lo[k].min(p[k] as f64 - 0.5);
+                    hi[k] = hi[k].max(p[k] as f64 + 0.5);
+                }
+            }
+        }
+        if let Some(v) = view {
+            (lo, hi) = ([v[0], v[1]], [v[2], v[3]]);
+        }
+        let scale = 2400.0 / (hi[0] - lo[0]).max(hi[1] - lo[1]);
+        let (w, h) = (
+            ((hi[0] - lo[0]) * scale).ceil() as usize,
+            ((hi[1] - lo[1]) * scale).ceil() as usize,
+        );
+        Raster {
+            lo,
+            hi,
+            scale,
+            w,
+            h,
+            rgb: vec![255; w * h * 3],
+        }
+    }
+
+    fn pixel(&self, p: P2) -> (f64, f64) {
+        (
+            (p[0] - self.lo[0]) * self.scale,
+            (self.hi[1] - p[1]) * self.scale,
+        )
+    }
+
+    fn set(&mut self, x: i64, y: i64, c: [u8; 3]) {
+        if x >= 0 && y >= 0 && (x as usize) < self.w && (y as usize) < self.h {
+            let i = (y as usize * self.w + x as usize) * 3;
+            self.rgb[i..i + 3].copy_from_slice(&c);
+        }
+    }
+
+    /// A square dot of half-width `r` pixels.
+    fn dot(&mut self, p: P2, r: i64, c: [u8; 3]) {
+        let (x, y) = self.pixel(p);
+        for dy in -r..=r {
+            for dx in -r..=r {
+                self.set(x as i64 + dx, y as i64 + dy, c);
+            }
+        }
+    }
+
+    /// A closed ring, 3 pixels wide.
+    fn ring(&mut self, ring: &[P2], c: [u8; 3]) {
+        for k in 0..ring.len() {
+            let (a, b) = (self.pixel(ring[k]), self.pixel(ring[(k + 1) % ring.len()]));
+            let n = ((b.0 - a.0).abs().max((b.1 - a.1).abs()).ceil() as usize).max(1);
+            for i in 0..=n {
+                let f = i as f64 / n as f64;
+                let (x, y) = (a.0 + f * (b.0 - a.0), a.1 + f * (b.1 - a.1));
+                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (-1, 0), (0, -1)] {
+                    self.set(x as i64 + dx, y as i64 + dy, c);
+                }
+            }
+        }
+    }
+
+    /// The picture as a PNG file: stored (uncompressed) deflate blocks, so that the example
+    /// needs no image crate.
+    fn encode(&self) -> Vec<u8> {
+        let mut raw = Vec::with_capacity(self.h * (self.w * 3 + 1));
+        for row in self.rgb.chunks(self.w * 3) {
+            raw.push(0);
+            raw.extend_from_slice(row);
+        }
+        let mut z = vec![0x78, 0x01];
+        let mut blocks = raw.chunks(65_535).peekable();
+        while let Some(b) = blocks.next() {
+            z.push(u8::from(blocks.peek().is_none()));
+            let len = b.len() as u16;
+            z.extend_from_slice(&len.to_le_bytes());
+            z.extend_from_slice(&(!len).to_le_bytes());
+            z.extend_from_slice(b);
+        }
+        let (mut a, mut b) = (1u32, 0u32);
+        for &x in &raw {
+            a = (a + x as u32) % 65_521;
+            b = (b + a) % 65_521;
+        }
+        z.extend_from_slice(&((b << 16) | a).to_be_bytes());
+        let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+        let mut ihdr = Vec::new();
+        ihdr.extend_from_slice(&(self.w as u32).to_be_bytes());
+        ihdr.extend_from_slice(&(self.h as u32).to_be_bytes());
+        ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
+        for (kind, data) in [(b"IHDR", ihdr), (b"IDAT", z), (b"IEND", Vec::new())] {
+            png.extend_from_slice(&(data.len() as u32).to_be_bytes());
+            let mut body = kind.to_vec();
+            body.extend_from_slice(&data);
+            png.extend_from_slice(&body);
+            png.extend_from_slice(&crc32(&body).to_be_bytes());
+        }
+        png
+    }
+}
+
+fn crc32(data: &[u8]) -> u32 {
+    let mut crc = 0xffff_ffffu32;
+    for &byte in data {
+        crc ^= byte as u32;
+        for _ in 0..8 {
+            crc = if crc & 1 != 0 {
+                0xedb8_8320 ^ (crc >> 1)
+            } else {
+                crc >> 1
+            };
+        }
+    }
+    !crc
 }

@@ -29,6 +29,7 @@ fn main() {
             .unwrap_or(1_000_000),
         seed: args.get(2).and_then(|a| a.parse().ok()).unwrap_or(1),
         mobile: args.iter().any(|a| a == "--mobile"),
+        voxel: BuildingKind::from_name(&args[0]).and_then(BuildingKind::voxel),
         ..Default::default()
     };
     let mut params = Params::default();
@@ -52,12 +53,45 @@ fn main() {
         sim.cloud.scan_ids.clear();
     }
     let start = std::time::Instant::now();
-    let plan = asbuilt_plan::plan(&sim.cloud, &params, &mut NoProgress).expect("plan");
+    let plan = match asbuilt_plan::plan(&sim.cloud, &params, &mut NoProgress) {
+        Ok(plan) => plan,
+        Err(e) => {
+            println!(
+                "row | {} | {} | no plan: {e} |",
+                args[0],
+                if args.iter().any(|a| a == "--no-poses") {
+                    "no"
+                } else {
+                    "yes"
+                }
+            );
+            return;
+        }
+    };
     let ms = start.elapsed().as_millis();
     let e = evaluate(&plan, &sim.truth, &EvaluateParams::default());
     print!("{}", e.summary());
     println!("plan {ms} ms; notes: {:?}", plan.notes);
     println!("timings_ms: {:?}", plan.timings_ms);
+    // One table row: stories found of the truth's, then the worst story's scores.
+    let found = e.stories.iter().filter(|s| s.plan_level.is_some()).count();
+    println!(
+        "row | {} | {} | {}/{} (+{}) | {:.4} | {:.3} | {:.3} | {:.3} | {} |",
+        args[0],
+        if args.iter().any(|a| a == "--no-poses") {
+            "no"
+        } else {
+            "yes"
+        },
+        found,
+        e.stories.len(),
+        e.extra_stories,
+        e.min_iou(),
+        e.max_boundary_p95(),
+        e.min_completeness(),
+        e.max_height_error(),
+        plan.parameters["samples"]["cell_size_derived"]
+    );
     if let Some(dir) = flag("--out") {
         std::fs::create_dir_all(&dir).unwrap();
         let mut with_samples = plan.clone();

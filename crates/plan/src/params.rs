@@ -214,6 +214,60 @@ impl Params {
     pub fn to_json(&self) -> serde_json::Value {
         serde_json::to_value(self).expect("params serialize")
     }
+
+    /// The parameters a run uses on a cloud whose points lie `spacing` metres apart (the
+    /// median nearest-neighbour distance; `None` when unmeasured), and the parameters JSON that
+    /// reports them: the given values, with each derived one beside it (`*_derived`).
+    ///
+    /// Beyond the paper: the grid cell d_s is at least [`CELLS_PER_SPACING`] point spacings,
+    /// so that a neighbourhood spans several points across a wall even when they sit on a
+    /// lattice (voxel centres, downsampled clouds). Where d_s grows, the lengths that are a
+    /// few cells (the lines of sight' end margin, the fitting's inlier band) grow with it and
+    /// the fitting's counts of samples shrink with it, so they keep their lengths. Clouds
+    /// dense enough for the given d_s keep every value.
+    pub fn derive(&self, spacing: Option<f64>) -> (Params, serde_json::Value) {
+        let mut run = self.clone();
+        let mut report = self.to_json();
+        if let Some(s) = spacing {
+            report["samples"]["point_spacing"] = serde_json::json!(round_mm(s));
+        }
+        let given = self.samples.cell_size;
+        let cell = spacing.map_or(given, |s| given.max(CELLS_PER_SPACING * s));
+        if self.samples.derive_cell_size && cell > given {
+            let k = cell / given;
+            run.samples.cell_size = cell;
+            run.labeling.ray_end_margin = self.labeling.ray_end_margin.map(|m| m * k);
+            let f = &mut run.fitting;
+            f.inlier_distance *= k;
+            let fewer = |n: usize| ((n as f64 / k).round() as usize).max(MIN_SCALED_COUNT.min(n));
+            f.min_inliers = fewer(f.min_inliers);
+            f.min_component = fewer(f.min_component);
+            f.grow_hops = fewer(f.grow_hops);
+            report["samples"]["cell_size_derived"] = serde_json::json!(round_mm(cell));
+            report["labeling"]["ray_end_margin_derived"] =
+                serde_json::json!(run.labeling.ray_end_margin.map(round_mm));
+            report["fitting"]["inlier_distance_derived"] =
+                serde_json::json!(round_mm(f.inlier_distance));
+            for (name, v) in [
+                ("min_inliers_derived", f.min_inliers),
+                ("min_component_derived", f.min_component),
+                ("grow_hops_derived", f.grow_hops),
+            ] {
+                report["fitting"][name] = serde_json::json!(v);
+            }
+        }
+        (run, report)
+    }
+}
+
+/// The grid cell is at least this many point spacings wide (see [`Params::derive`]).
+pub const CELLS_PER_SPACING: f64 = 1.25;
+
+/// Counts of samples scaled down for a coarser grid stay at least this (or their given value).
+const MIN_SCALED_COUNT: usize = 5;
+
+fn round_mm(v: f64) -> f64 {
+    (v * 1000.0).round() / 1000.0
 }
 
 #[cfg(test)]
@@ -265,6 +319,30 @@ mod tests {
         assert!(
             matches!(p.check(), Err(ParamsError::Invalid { name, .. }) if name == "smoothing.max_angle")
         );
+    }
+
+    #[test]
+    fn a_coarse_cloud_widens_the_cell_and_what_follows_from_it() {
+        let p = Params::default();
+        // Dense: nothing changes, the spacing is reported.
+        let (run, report) = p.derive(Some(0.02));
+        assert_eq!(run, p);
+        assert_eq!(report["samples"]["point_spacing"], 0.02);
+        assert!(report["samples"].get("cell_size_derived").is_none());
+        assert_eq!(p.derive(None).0, p);
+        // 8 cm voxel centres: a 10 cm cell, lengths doubled and counts halved.
+        let (run, report) = p.derive(Some(0.08));
+        assert!((run.samples.cell_size - 0.1).abs() < 1e-12);
+        assert_eq!(report["samples"]["cell_size"], 0.05);
+        assert_eq!(report["samples"]["cell_size_derived"], 0.1);
+        assert!((run.fitting.inlier_distance - 0.06).abs() < 1e-12);
+        assert!((run.labeling.ray_end_margin.unwrap() - 0.3).abs() < 1e-12);
+        assert_eq!(run.fitting.min_inliers, 8);
+        assert_eq!(report["fitting"]["min_inliers_derived"], 8);
+        // Switched off, the given cell stays.
+        let mut off = p.clone();
+        off.samples.derive_cell_size = false;
+        assert_eq!(off.derive(Some(0.08)).0, off);
     }
 
     #[test]

@@ -11,7 +11,9 @@ use crate::labeling::{label_with_report, LabelingError};
 use crate::params::Params;
 use crate::plan::{FloorPlan, InputSummary, StoryPlan};
 use crate::progress::{Progress, Stage};
-use crate::samples::{check_params, sample_walls_in, SamplesError, StoryBounds, WallSamples};
+use crate::samples::{
+    check_params, sample_walls_in, SamplesError, SpacingProbe, StoryBounds, WallSamples,
+};
 use crate::smoothing::{smooth_samples, SmoothingError};
 use crate::stories::{split_cloud_stories, StoriesError, Story};
 use crate::validity::{make_valid, Grid};
@@ -129,6 +131,10 @@ pub fn plan(
     cloud.check().map_err(PlanError::BadCloud)?;
     let mut timings = Timings::default();
     progress.report(Stage::Stories, 0.0);
+    // The point spacing chooses the grid's scale (and what follows from it).
+    let spacing = timings.time(Stage::Samples, || SpacingProbe::of(&cloud.xyz).spacing());
+    let (params, reported) = params.derive(spacing);
+    let params = &params;
     // Splitting the stories and measuring their bounds are a few linear passes over the
     // points: checked between them, not inside.
     let stories = timings.time(Stage::Stories, || {
@@ -151,6 +157,7 @@ pub fn plan(
         &summary,
         &stories,
         params,
+        reported,
         progress,
         timings,
         start,
@@ -173,11 +180,14 @@ impl<'a> CloudSummary<'a> {
 
 /// Every stage after the stories, story by story; `sample` gives a story's wall samples.
 /// Stories that fail are noted and skipped; the plan fails only when none succeeds. A stop
-/// from `progress`'s [`Cancel`] ends the whole run as [`PlanError::Cancelled`].
+/// from `progress`'s [`Cancel`] ends the whole run as [`PlanError::Cancelled`]. `params` are
+/// the ones the run uses, `parameters` what the plan reports of them ([`Params::derive`]).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn plan_stories(
     input: &CloudSummary<'_>,
     stories: &[Story],
     params: &Params,
+    mut parameters: serde_json::Value,
     progress: &mut dyn Progress,
     mut timings: Timings,
     start: Instant,
@@ -187,11 +197,12 @@ pub(crate) fn plan_stories(
     let cancel = progress.cancel();
     let mut notes = Vec::new();
     let mut plans = Vec::new();
-    let mut parameters = params.to_json();
     let mut min_points_used = Vec::new();
     let mut failures = Vec::new();
     for (i, story) in stories.iter().enumerate() {
         let at = |k: f64| (i as f64 + k) / stories.len() as f64;
+        // What was assumed about the floor or ceiling goes with the story's plan or failure.
+        let assumed = story.assumptions(cloud.origin[2]);
         let grid = Grid::world(cloud.origin);
         match plan_story(
             story,
@@ -208,20 +219,25 @@ pub(crate) fn plan_stories(
             Ok((story_plan, used, story_notes)) => {
                 min_points_used.push(used);
                 notes.extend(
-                    story_notes
+                    assumed
                         .into_iter()
+                        .chain(story_notes)
                         .map(|n| format!("story {}: {n}", story.level)),
                 );
                 plans.push(story_plan);
             }
             Err(PlanError::Cancelled(c)) => return Err(PlanError::Cancelled(c)),
             Err(e) => {
+                let why = match assumed.is_empty() {
+                    true => e.to_string(),
+                    false => format!("{e} ({})", assumed.join("; ")),
+                };
                 notes.push(format!(
-                    "story {} (floor z {:.2}) skipped: {e}",
+                    "story {} (floor z {:.2}) skipped: {why}",
                     story.level,
                     story.floor_z + cloud.origin[2]
                 ));
-                failures.push(e.to_string());
+                failures.push(why);
             }
         }
     }

@@ -39,9 +39,17 @@ impl Default for StoriesParams {
 
 /// One story: its floor and ceiling, and the z range of points assigned to it (local frame).
 ///
-/// `ceiling_z` is the lowest ceiling at least the minimum wall height above the floor (the
-/// paper's rule). A story may have higher ceilings too (rooms with a raised ceiling); those
-/// lie inside `z_min..z_max`, so their walls still belong to the story.
+/// A story may have several flat ceilings (rooms with a raised ceiling): `wall_top_z` is the
+/// lowest at least the minimum wall height above the floor (the paper's rule, and where the
+/// wall tests expect walls to reach), `top_z` the highest, and `ceiling_z` the one over most of
+/// the story (the densest), which the plan reports. Higher ceilings lie inside `z_min..z_max`,
+/// so their walls still belong to the story.
+///
+/// Beyond the paper, a story's ceiling may slope or be missing (an attic under a pitched roof):
+/// `flat_ceiling` is false, the three ceiling heights are where the story's points end, and the
+/// wall tests measure each cell against its own top. Its floor may be missing too (a capture
+/// of ceilings and upper walls only): `floor_seen` is false and `floor_z` is assumed at the
+/// story's lowest points.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Story {
     /// 0 is the lowest story.
@@ -51,7 +59,77 @@ pub struct Story {
     /// Points with `z_min <= z < z_max` belong to this story (partition levels, §3.1).
     pub z_min: f64,
     pub z_max: f64,
+    /// The lowest ceiling at least the minimum wall height above the floor.
+    pub wall_top_z: f64,
+    /// The highest ceiling.
+    pub top_z: f64,
+    /// False when no floor was seen and `floor_z` is assumed.
+    pub floor_seen: bool,
+    /// False when the ceiling slopes or was not seen.
+    pub flat_ceiling: bool,
 }
+
+impl Story {
+    /// A story with one flat ceiling and a seen floor, as the paper has them.
+    pub fn flat(level: usize, floor_z: f64, ceiling_z: f64, z_min: f64, z_max: f64) -> Story {
+        Story {
+            level,
+            floor_z,
+            ceiling_z,
+            z_min,
+            z_max,
+            wall_top_z: ceiling_z,
+            top_z: ceiling_z,
+            floor_seen: true,
+            flat_ceiling: true,
+        }
+    }
+
+    /// Whether a scanner at height `z` stands within this story: in its partition range, not
+    /// below its floor (when seen) and, under flat ceilings, not above the highest. A scanner
+    /// on a gallery above a double-height room is no viewpoint of the story below: its lines of
+    /// sight pass over that story's walls in 3D, and would cut through them in 2D.
+    pub fn holds_viewpoint(&self, z: f64) -> bool {
+        let above_floor = if self.floor_seen {
+            z >= self.z_min && z >= self.floor_z - VIEWPOINT_BELOW_FLOOR
+        } else {
+            // The floor is unknown: a phone held low sees no lower than the walls it captured.
+            true
+        };
+        above_floor && z < self.z_max && (!self.flat_ceiling || z <= self.top_z)
+    }
+
+    /// What was assumed about this story's floor and ceiling, for the plan's notes (heights in
+    /// the local frame plus `z0`).
+    pub fn assumptions(&self, z0: f64) -> Vec<String> {
+        let mut notes = Vec::new();
+        if !self.floor_seen {
+            notes.push(format!(
+                "no floor was seen; the floor is assumed at the lowest points, z {:.2}",
+                self.floor_z + z0
+            ));
+        }
+        if !self.flat_ceiling {
+            notes.push(format!(
+                "no flat ceiling was seen (sloped or missing); walls are tested against each \
+                 cell's own top, and the story's points end at z {:.2}",
+                self.ceiling_z + z0
+            ));
+        } else if self.top_z > self.wall_top_z + 0.01 {
+            notes.push(format!(
+                "ceilings at several heights, z {:.2} to {:.2}; the most common is z {:.2}",
+                self.wall_top_z + z0,
+                self.top_z + z0,
+                self.ceiling_z + z0
+            ));
+        }
+        notes
+    }
+}
+
+/// A scanner head may stand this far below a story's floor and still be in it (a pose given
+/// at the tripod's foot, or a floor found a little high).
+const VIEWPOINT_BELOW_FLOOR: f64 = 0.25;
 
 /// Why no stories could be found.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -215,16 +293,20 @@ impl HeightHistogram {
         let mut tried = Vec::new();
         for dense in hist.dense_sets() {
             let candidates = hist.peaks(&dense);
-            match assemble(&candidates, params.min_wall_height) {
+            match hist.assemble(&candidates, params.min_wall_height) {
                 Some(levels) => return Ok(hist.partition(&levels)),
                 None => tried.push(describe(&candidates)),
             }
+        }
+        if let Some(levels) = hist.one_sided(params.min_wall_height) {
+            return Ok(hist.partition(&[levels]));
         }
         Err(StoriesError::NotFound(if tried.is_empty() {
             "the heights are spread evenly, with no dense floor or ceiling level".into()
         } else {
             format!(
-                "no two dense levels are {} m apart (candidates: {})",
+                "no two dense levels are {} m apart, and no single level has walls of that \
+                 height beside it (candidates: {})",
                 params.min_wall_height,
                 tried.join("; ")
             )
@@ -256,13 +338,23 @@ struct Peak {
     count: u64,
 }
 
-/// Floor, lowest ceiling and highest ceiling of one story, before partitioning.
+/// One story's levels, before partitioning.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Levels {
     floor: f64,
+    /// The lowest ceiling (the wall tests' top).
     ceiling: f64,
+    /// The densest ceiling (the one reported).
+    main: f64,
+    /// The highest ceiling.
     top: f64,
+    floor_seen: bool,
+    flat: bool,
 }
+
+/// The share of a story's points below which its top is taken where the ceiling is not flat
+/// (a few stray points above a roof must not raise it).
+const TOP_QUANTILE: f64 = 0.999;
 
 /// Height histogram with per-bin sums of z, so peaks can be located finer than a bin.
 #[derive(Debug, Clone, PartialEq)]
@@ -339,7 +431,7 @@ impl Histogram {
             .map(|k| Story {
                 level: k,
                 floor_z: levels[k].floor,
-                ceiling_z: levels[k].ceiling,
+                ceiling_z: levels[k].main,
                 z_min: if k == 0 {
                     self.z_lo
                 } else {
@@ -350,46 +442,181 @@ impl Histogram {
                 } else {
                     (levels[k].top + levels[k + 1].floor) / 2.0
                 },
+                wall_top_z: levels[k].ceiling,
+                top_z: levels[k].top,
+                floor_seen: levels[k].floor_seen,
+                flat_ceiling: levels[k].flat,
             })
             .collect()
     }
-}
 
-/// Walks the candidates upward (§3.1): the lowest is a floor, its ceiling the lowest candidate at
-/// least `h` above it, and so on. `None` when not even one story is found.
-///
-/// Beyond the paper, for rooms of different ceiling heights: after a ceiling, a candidate is the
-/// next floor only if some candidate lies `h` above it. Of the candidates that could be the
-/// floor under that next ceiling, the densest is the floor; the others are further ceilings of
-/// the story below. Without this, a second ceiling height would start a story of its own.
-fn assemble(candidates: &[Peak], h: f64) -> Option<Vec<Levels>> {
-    let above = |from: usize, z: f64| (from..candidates.len()).find(|&j| candidates[j].z >= z);
-    let mut stories = Vec::new();
-    let mut floor = 0;
-    while floor < candidates.len() {
-        let Some(ceiling) = above(floor + 1, candidates[floor].z + h) else {
-            break;
-        };
-        let next_ceiling = candidates
-            .get(ceiling + 1)
-            .and_then(|next| above(ceiling + 2, next.z + h));
-        let next_floor = next_ceiling.and_then(|c2| {
-            (ceiling + 1..c2)
-                .filter(|&j| candidates[j].z <= candidates[c2].z - h)
+    /// The bin of height `z`, clamped to the histogram.
+    fn bin_of(&self, z: f64) -> usize {
+        (((z - self.z_lo) / self.bin).max(0.0) as usize).min(self.count.len() - 1)
+    }
+
+    /// Points in the bins from `from` on.
+    fn count_from(&self, from: usize) -> u64 {
+        self.count.iter().skip(from).sum()
+    }
+
+    /// The mean height of the bin in which a share `q` of the points in bins `from..` is
+    /// reached, counting upward.
+    fn quantile_from(&self, from: usize, q: f64) -> Option<f64> {
+        let total = self.count_from(from);
+        if total == 0 {
+            return None;
+        }
+        let want = (q * total as f64).ceil().max(1.0) as u64;
+        let mut seen = 0;
+        for i in from..self.count.len() {
+            seen += self.count[i];
+            if seen >= want {
+                return Some(self.bin_mean(i));
+            }
+        }
+        None
+    }
+
+    /// The mean height of the points in bin `i`.
+    fn bin_mean(&self, i: usize) -> f64 {
+        self.z_lo + self.sum[i] as f64 / SUM_SCALE / self.count[i].max(1) as f64
+    }
+
+    /// Walks the candidates upward (§3.1): the lowest is a floor, its ceiling the lowest
+    /// candidate at least `h` above it, and so on. `None` when not even one story is found.
+    ///
+    /// Beyond the paper, for rooms of different ceiling heights: after a ceiling, a candidate
+    /// is the next floor only if some candidate lies `h` above it. Of the candidates that could
+    /// be the floor under that next ceiling, the densest is the floor; the others are further
+    /// ceilings of the story below, the densest of which is reported. Without this, a second
+    /// ceiling height would start a story of its own. Above the last such story, a candidate
+    /// with walls and a roof over it but no flat ceiling is the floor of a story under a
+    /// sloped roof ([`Self::opens_story`]).
+    fn assemble(&self, candidates: &[Peak], h: f64) -> Option<Vec<Levels>> {
+        let above = |from: usize, z: f64| (from..candidates.len()).find(|&j| candidates[j].z >= z);
+        let mut stories = Vec::new();
+        let mut floor = 0;
+        while floor < candidates.len() {
+            let Some(ceiling) = above(floor + 1, candidates[floor].z + h) else {
+                break;
+            };
+            let next_ceiling = candidates
+                .get(ceiling + 1)
+                .and_then(|next| above(ceiling + 2, next.z + h));
+            let next_floor = next_ceiling.and_then(|c2| {
+                (ceiling + 1..c2)
+                    .filter(|&j| candidates[j].z <= candidates[c2].z - h)
+                    .max_by_key(|&j| (candidates[j].count, std::cmp::Reverse(j)))
+            });
+            let open = match next_floor {
+                Some(_) => None,
+                None => {
+                    (ceiling + 1..candidates.len()).find(|&j| self.opens_story(candidates, j, h))
+                }
+            };
+            let last_own = open.or(next_floor).unwrap_or(candidates.len()) - 1;
+            let main = (ceiling..=last_own)
                 .max_by_key(|&j| (candidates[j].count, std::cmp::Reverse(j)))
-        });
-        let last_own = next_floor.map_or(candidates.len(), |f| f) - 1;
-        stories.push(Levels {
-            floor: candidates[floor].z,
-            ceiling: candidates[ceiling].z,
-            top: candidates[last_own].z,
-        });
-        match next_floor {
-            Some(f) => floor = f,
-            None => break,
+                .unwrap_or(ceiling);
+            stories.push(Levels {
+                floor: candidates[floor].z,
+                ceiling: candidates[ceiling].z,
+                main: candidates[main].z,
+                top: candidates[last_own].z,
+                floor_seen: true,
+                flat: true,
+            });
+            if let Some(j) = open {
+                stories.push(self.open_story(candidates[j].z));
+                break;
+            }
+            match next_floor {
+                Some(f) => floor = f,
+                None => break,
+            }
+        }
+        (!stories.is_empty()).then_some(stories)
+    }
+
+    /// Whether candidate `j`, above the last story's ceiling, is the floor of a story whose
+    /// ceiling is not flat: it is the highest dense level, at least as many points lie above it
+    /// as in its own bin, and they reach half the minimum wall height `h` above it (knee walls
+    /// under a pitched roof are often lower than `h`). A raised ceiling has nothing above it.
+    fn opens_story(&self, candidates: &[Peak], j: usize, h: f64) -> bool {
+        if j + 1 != candidates.len() {
+            return false;
+        }
+        let z = candidates[j].z;
+        let from = self.bin_of(z) + 2;
+        self.count_from(from) >= candidates[j].count
+            && self
+                .quantile_from(from, TOP_QUANTILE)
+                .is_some_and(|top| top >= z + h / 2.0)
+    }
+
+    /// The levels of a story on the floor at `z` whose ceiling is not flat: its top is where
+    /// its points end.
+    fn open_story(&self, z: f64) -> Levels {
+        let top = self
+            .quantile_from(self.bin_of(z) + 2, TOP_QUANTILE)
+            .unwrap_or(self.z_hi);
+        Levels {
+            floor: z,
+            ceiling: top,
+            main: top,
+            top,
+            floor_seen: true,
+            flat: false,
         }
     }
-    (!stories.is_empty()).then_some(stories)
+
+    /// Beyond the paper: one story from a single dense level, when no floor and ceiling pair
+    /// exists. The densest bin (at least [`MIN_JUMP`] times the median non-empty count) is a
+    /// floor when more points lie above it than below, else a ceiling.
+    /// - A floor whose ceiling slopes or was not seen: no level above is nearly as dense (that
+    ///   would be a flat ceiling too low for a story), and its points reach `h` / 2 above it.
+    /// - A ceiling over a floor that was not seen (a phone capture of ceilings and upper
+    ///   walls): the points below it reach `h` down; the floor is assumed at the lowest of
+    ///   them (the 0.1 % quantile, so a stray point does not set it).
+    fn one_sided(&self, h: f64) -> Option<Levels> {
+        let mut counts: Vec<u64> = self.count.iter().copied().filter(|&c| c > 0).collect();
+        if counts.is_empty() {
+            return None;
+        }
+        let mid = counts.len() / 2;
+        let median = *counts.select_nth_unstable(mid).1;
+        let (i, &peak) = self
+            .count
+            .iter()
+            .enumerate()
+            .max_by_key(|&(i, &c)| (c, std::cmp::Reverse(i)))?;
+        if (peak as f64) < MIN_JUMP * median as f64 {
+            return None;
+        }
+        let z = self.bin_mean(i);
+        let below: u64 = self.count[..i.saturating_sub(1)].iter().sum();
+        let above = self.count_from(i + 2);
+        if above > below {
+            let rival = self
+                .count
+                .iter()
+                .skip(i + 2)
+                .any(|&c| c as f64 * MIN_JUMP >= peak as f64);
+            let open = self.open_story(z);
+            (!rival && open.top >= z + h / 2.0).then_some(open)
+        } else {
+            let low = self.quantile_from(0, 1.0 - TOP_QUANTILE)?;
+            (z - low >= h).then_some(Levels {
+                floor: low,
+                ceiling: z,
+                main: z,
+                top: z,
+                floor_seen: false,
+                flat: true,
+            })
+        }
+    }
 }
 
 #[cfg(test)]
@@ -442,13 +669,116 @@ mod tests {
         // Like the real apartment: floor at -1.73, ceilings at 0.77 and 1.35.
         let mut rng = ChaCha8Rng::seed_from_u64(2);
         let mut z = Vec::new();
-        story(&mut rng, &mut z, (-1.73, 0.77), 20_000, 30_000);
-        story(&mut rng, &mut z, (-1.73, 1.35), 20_000, 30_000);
+        // The higher ceiling covers more of the floor, as there.
+        story(&mut rng, &mut z, (-1.73, 0.77), 15_000, 30_000);
+        story(&mut rng, &mut z, (-1.73, 1.35), 25_000, 30_000);
         let stories = split_stories(&z, &StoriesParams::default()).unwrap();
         assert_eq!(stories.len(), 1, "{stories:?}");
         let s = stories[0];
-        assert!((s.floor_z + 1.73).abs() < 0.02 && (s.ceiling_z - 0.77).abs() < 0.02);
-        assert!(s.z_min <= -1.735 && s.z_max > 1.355, "{s:?}");
+        assert!((s.floor_z + 1.73).abs() < 0.02, "{s:?}");
+        // Walls are tested up to the lower ceiling; the plan reports the common one.
+        assert!((s.wall_top_z - 0.77).abs() < 0.02, "{s:?}");
+        assert!((s.ceiling_z - 1.35).abs() < 0.02, "{s:?}");
+        assert!((s.top_z - 1.35).abs() < 0.02, "{s:?}");
+        assert!(s.floor_seen && s.flat_ceiling);
+        assert!(s.z_min <= -1.7349 && s.z_max > 1.355, "{s:?}");
+        assert!(s.assumptions(0.0)[0].contains("several heights"));
+    }
+
+    /// Heights of a story under a pitched roof: a floor slab at `floor`, knee walls up to
+    /// `eaves`, and a roof rising evenly from `eaves` to `ridge` (with the gables beneath it).
+    fn attic(rng: &mut ChaCha8Rng, z: &mut Vec<f32>, floor: f32, eaves: f32, ridge: f32) {
+        for _ in 0..15_000 {
+            z.push(floor + rng.random_range(-0.005..0.005));
+        }
+        for _ in 0..10_000 {
+            z.push(rng.random_range(floor..eaves));
+        }
+        for _ in 0..25_000 {
+            z.push(rng.random_range(eaves..ridge));
+        }
+        // The gables: fewer points the higher, as the triangle narrows.
+        for _ in 0..8_000 {
+            let t: f32 = rng.random_range(0.0f32..1.0);
+            z.push(eaves + (ridge - eaves) * (1.0 - t.sqrt()));
+        }
+    }
+
+    #[test]
+    fn an_attic_under_a_pitched_roof_is_a_story_of_its_own() {
+        // The issue's house: a ground floor, a slab, and an attic whose knee walls are under
+        // 2 m and whose ceiling slopes. Before, the attic's floor was taken for a second
+        // ceiling of the ground floor, and the ground floor's range ran up to the ridge.
+        let mut rng = ChaCha8Rng::seed_from_u64(6);
+        let mut z = Vec::new();
+        story(&mut rng, &mut z, (0.0, 2.45), 20_000, 30_000);
+        attic(&mut rng, &mut z, 2.6, 3.8, 6.0);
+        let stories = split_stories(&z, &StoriesParams::default()).unwrap();
+        assert_eq!(stories.len(), 2, "{stories:?}");
+        let (ground, top) = (stories[0], stories[1]);
+        assert!(
+            (ground.ceiling_z - 2.45).abs() < 0.02 && ground.flat_ceiling,
+            "{ground:?}"
+        );
+        assert!((ground.top_z - 2.45).abs() < 0.02, "{ground:?}");
+        assert!(
+            (top.floor_z - 2.6).abs() < 0.02 && top.floor_seen,
+            "{top:?}"
+        );
+        assert!(!top.flat_ceiling, "{top:?}");
+        assert!((top.ceiling_z - 6.0).abs() < 0.05, "{top:?}");
+        assert!((ground.z_max - 2.525).abs() < 0.02 && ground.z_max == top.z_min);
+        // A scanner on the attic floor belongs to the attic only.
+        assert!(top.holds_viewpoint(4.1) && !ground.holds_viewpoint(4.1));
+        assert!(ground.holds_viewpoint(1.5) && !top.holds_viewpoint(1.5));
+        assert!(top.assumptions(0.0)[0].contains("no flat ceiling"));
+    }
+
+    #[test]
+    fn a_lone_attic_has_a_floor_and_no_flat_ceiling() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let mut z = Vec::new();
+        attic(&mut rng, &mut z, 0.0, 1.0, 3.2);
+        let stories = split_stories(&z, &StoriesParams::default()).unwrap();
+        assert_eq!(stories.len(), 1, "{stories:?}");
+        let s = stories[0];
+        assert!(
+            s.floor_z.abs() < 0.02 && s.floor_seen && !s.flat_ceiling,
+            "{s:?}"
+        );
+        assert!((s.ceiling_z - 3.2).abs() < 0.05, "{s:?}");
+    }
+
+    #[test]
+    fn a_capture_of_ceilings_and_upper_walls_assumes_its_floor() {
+        // Like the iPad rooms: a dense ceiling at 4.45, a sparser grid below it, and walls seen
+        // from 1.6 m up only.
+        let mut rng = ChaCha8Rng::seed_from_u64(8);
+        let mut z = Vec::new();
+        for _ in 0..20_000 {
+            z.push(4.45 + rng.random_range(-0.02..0.02));
+        }
+        for _ in 0..3_000 {
+            z.push(3.35 + rng.random_range(-0.05..0.05));
+        }
+        for _ in 0..20_000 {
+            z.push(rng.random_range(1.6..4.45));
+        }
+        let stories = split_stories(&z, &StoriesParams::default()).unwrap();
+        assert_eq!(stories.len(), 1, "{stories:?}");
+        let s = stories[0];
+        assert!(!s.floor_seen && s.flat_ceiling, "{s:?}");
+        assert!((s.ceiling_z - 4.45).abs() < 0.02, "{s:?}");
+        assert!((s.floor_z - 1.6).abs() < 0.05, "{s:?}");
+        // Without a floor, a scanner below the walls seen is still in the story.
+        assert!(s.holds_viewpoint(1.4));
+        assert!(s.assumptions(0.0)[0].contains("no floor was seen"));
+        // Walls seen over less than the minimum wall height: no story.
+        let high: Vec<f32> = z.iter().copied().filter(|&v| v > 2.6).collect();
+        assert!(matches!(
+            split_stories(&high, &StoriesParams::default()),
+            Err(StoriesError::NotFound(_))
+        ));
     }
 
     #[test]

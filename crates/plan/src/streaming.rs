@@ -31,7 +31,7 @@ use crate::progress::{Progress, Stage};
 use crate::samples::grid::MAX_CELLS;
 use crate::samples::{
     check_params, finish_samples, scan_cells, CellRange, CellScan, GridFrame, SamplesError,
-    StoryBounds, WallSamples,
+    SpacingProbe, StoryBounds, WallSamples,
 };
 use crate::stories::{HeightHistogram, Story};
 
@@ -129,9 +129,11 @@ pub fn plan_file(
     let mut chunks = open_chunks(path, &read)?;
     let mut chunk = PointChunk::default();
     let mut survey = Survey::default();
+    let mut probe = SpacingProbe::default();
     while chunks.next_chunk(&mut chunk)? {
         stop()?;
         survey.add(&chunk);
+        probe.add(&chunk.xyz);
     }
     let mut skeleton = chunks.skeleton()?;
     drop(chunks);
@@ -140,6 +142,9 @@ pub fn plan_file(
         return Err(PlanError::EmptyCloud.into());
     }
     attach(&mut skeleton, sidecar, &survey)?;
+    // The same spacing as in memory: the probe keeps the same points whatever the order.
+    let (params, reported) = params.derive(probe.spacing());
+    let params = &params;
     let tiling = Tiling::plan(&survey, &skeleton, params, stream)?;
     stop()?;
 
@@ -266,6 +271,7 @@ pub fn plan_file(
         &summary,
         &stories,
         params,
+        reported,
         progress,
         timings,
         start,

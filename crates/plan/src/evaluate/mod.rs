@@ -171,13 +171,25 @@ pub fn evaluate(plan: &FloorPlan, truth: &Truth, params: &EvaluateParams) -> Eva
         .stories
         .iter()
         .map(|t| {
-            let matched = plan
-                .stories
-                .iter()
-                .enumerate()
-                .map(|(k, p)| (k, (p.floor_z + shift[2] - t.floor_z).abs()))
-                .filter(|&(_, e)| e <= params.story_tolerance)
-                .min_by(|a, b| a.1.total_cmp(&b.1));
+            // By floor height; a plan story whose floor was not seen (and was assumed higher,
+            // within the truth story) is matched by its ceiling.
+            let within = |p: &StoryPlan| (t.floor_z..t.ceiling_z).contains(&(p.floor_z + shift[2]));
+            let nearest = |by_ceiling: bool| {
+                plan.stories
+                    .iter()
+                    .enumerate()
+                    .filter(|(k, p)| !used[*k] && (!by_ceiling || within(p)))
+                    .map(|(k, p)| {
+                        let e = match by_ceiling {
+                            false => p.floor_z + shift[2] - t.floor_z,
+                            true => p.ceiling_z + shift[2] - t.ceiling_z,
+                        };
+                        (k, e.abs())
+                    })
+                    .filter(|&(_, e)| e <= params.story_tolerance)
+                    .min_by(|a, b| a.1.total_cmp(&b.1))
+            };
+            let matched = nearest(false).or_else(|| nearest(true));
             match matched {
                 Some((k, _)) => {
                     used[k] = true;

@@ -72,6 +72,12 @@ pub(super) struct Tests {
     min_top: usize,
     min_confidence: f64,
     density_aware: bool,
+    /// The story's ceiling is not flat: each neighbourhood's histogram runs from the floor to
+    /// its own highest point (see [`Self::run_binned`]).
+    local_top: bool,
+    /// The story's floor was not seen: each neighbourhood's histogram runs from its own lowest
+    /// point to the ceiling.
+    local_bottom: bool,
     /// [`Self::required`] for `n` below its length; the last entry holds for every larger `n`.
     required: Vec<(u32, u32)>,
 }
@@ -83,13 +89,15 @@ impl Tests {
     pub fn new(story: &Story, params: &SamplesParams) -> Tests {
         let mut tests = Tests {
             floor: story.floor_z,
-            ceiling: story.ceiling_z,
+            ceiling: story.wall_top_z,
             min_wall_height: params.min_wall_height,
             bins: params.height_bins,
             min_filled: params.min_filled_bins,
             min_top: params.min_top_bins,
             min_confidence: params.min_confidence,
             density_aware: params.density_aware_histogram,
+            local_top: !story.flat_ceiling,
+            local_bottom: !story.floor_seen,
             required: Vec::new(),
         };
         // The requirements grow with n (the fill probability does) up to their value for
@@ -106,17 +114,28 @@ impl Tests {
         tests
     }
 
+    /// The least vertical support a neighbourhood may have: the minimum wall height, or half
+    /// of it where a neighbourhood is measured against its own top or bottom (knee walls under
+    /// a pitched roof; walls seen only from above where the floor was not).
     pub fn min_wall_height(&self) -> f64 {
-        self.min_wall_height
+        if self.local() {
+            self.min_wall_height / 2.0
+        } else {
+            self.min_wall_height
+        }
+    }
+
+    /// Whether each neighbourhood is measured against its own top or bottom (a story whose
+    /// ceiling is not flat, or whose floor was not seen); the stored bin codes and block masks
+    /// then say nothing.
+    pub fn local(&self) -> bool {
+        self.local_top || self.local_bottom
     }
 
     /// The height bin of `z` over `[floor, ceiling]`, `None` outside. Points above a lower
     /// ceiling (rooms with a higher one) are left out rather than piled into the top bin.
     pub fn bin_of(&self, z: f32) -> Option<u32> {
-        let t = (z as f64 - self.floor) / (self.ceiling - self.floor);
-        (0.0..=1.0)
-            .contains(&t)
-            .then(|| ((t * self.bins as f64) as usize).min(self.bins - 1) as u32)
+        bin_in(z, self.floor, self.ceiling, self.bins).map(u32::from)
     }
 
     /// Bins required non-empty overall and among the top four, for `n` points in the
@@ -222,16 +241,38 @@ impl Tests {
         let (zmin, zmax) = pts.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |a, p| {
             (a.0.min(p[2]), a.1.max(p[2]))
         });
-        if ((zmax - zmin) as f64) < self.min_wall_height {
-            return Err(Reject::TooShort);
-        }
         let last = self.bins as u8 - 1;
-        let (mask, n) = bins
-            .iter()
-            .filter(|&&b| b != NO_BIN)
-            .fold((0u32, 0usize), |(m, n), &b| {
-                (m | 1 << b, n + usize::from(b != 0 && b != last))
-            });
+        let tally =
+            |(m, n): (u32, usize), b: u8| (m | 1 << b, n + usize::from(b != 0 && b != last));
+        let (mask, n) = if self.local() {
+            // Under a sloped roof a wall runs from the floor up to where the roof meets it:
+            // the cell's own top. Where the floor was not seen, a wall is seen from its own
+            // bottom, at least the minimum wall height under the ceiling (lamps and ducts
+            // hang higher), up to its own top (a suspended ceiling may hide where it meets the
+            // slab). Either way it spans at least half the minimum wall height, and the
+            // histogram over that span asks the wall to fill it.
+            let bottom = if self.local_bottom {
+                zmin as f64
+            } else {
+                self.floor
+            };
+            let top = zmax as f64;
+            let deep = !self.local_bottom || self.ceiling - bottom >= self.min_wall_height;
+            if !deep || (top - bottom).min((zmax - zmin) as f64) < self.min_wall_height() {
+                return Err(Reject::TooShort);
+            }
+            pts.iter()
+                .filter_map(|p| bin_in(p[2], bottom, top, self.bins))
+                .fold((0u32, 0usize), tally)
+        } else {
+            if ((zmax - zmin) as f64) < self.min_wall_height {
+                return Err(Reject::TooShort);
+            }
+            bins.iter()
+                .copied()
+                .filter(|&b| b != NO_BIN)
+                .fold((0u32, 0usize), tally)
+        };
         self.histogram(mask, n)?;
         let pos = median_in_cell(pts, lo, cell, within).ok_or(Reject::MedianOutside)?;
         let (normal, confidence) = pca_normal(pts).ok_or(Reject::Unaligned)?;
@@ -244,6 +285,15 @@ impl Tests {
             confidence,
         })
     }
+}
+
+/// The bin of `z` among `bins` equal bins over `[floor, top]`, `None` outside.
+#[inline]
+fn bin_in(z: f32, floor: f64, top: f64, bins: usize) -> Option<u8> {
+    let t = (z as f64 - floor) / (top - floor);
+    (0.0..=1.0)
+        .contains(&t)
+        .then(|| ((t * bins as f64) as usize).min(bins - 1) as u8)
 }
 
 /// The probability with which an evenly spread wall must pass the filled-bins tests.
@@ -344,13 +394,7 @@ mod tests {
     }
 
     fn tests_with(params: SamplesParams) -> Tests {
-        let story = Story {
-            level: 0,
-            floor_z: 0.0,
-            ceiling_z: 3.0,
-            z_min: -0.5,
-            z_max: 3.5,
-        };
+        let story = Story::flat(0, 0.0, 3.0, -0.5, 3.5);
         Tests::new(&story, &params)
     }
 
@@ -510,6 +554,61 @@ mod tests {
         assert!(n[0] > 0.0 && (crate::geom::norm(n) - 1.0).abs() < 1e-12);
         assert!((c - 1.0).abs() < 1e-9);
         assert_eq!(pca_normal(&[[1.0, 1.0, 0.0]; 3]), None);
+    }
+
+    /// Ten columns of points along y = 0.02 from `z0` up to `z1`: a wall, or (`wall` false)
+    /// only its lowest and highest rows, a floor with a roof over it.
+    fn column(z0: f32, z1: f32, wall: bool) -> Vec<[f32; 3]> {
+        let mut pts = Vec::new();
+        for a in 0..10 {
+            let x = -0.05 + 0.01 * a as f32;
+            for b in 0..30 {
+                let z = z0 + (z1 - z0) * b as f32 / 29.0;
+                if wall || b == 0 || b == 29 {
+                    pts.push([x, 0.02 + if b % 2 == 0 { 0.002 } else { -0.002 }, z]);
+                }
+            }
+        }
+        pts
+    }
+
+    #[test]
+    fn under_a_sloped_roof_a_wall_is_measured_against_its_own_top() {
+        // An attic: floor at 2.6, the story's points reaching 6.0 under the ridge.
+        let mut story = Story::flat(1, 2.6, 6.0, 2.5, 6.1);
+        story.flat_ceiling = false;
+        let t = Tests::new(&story, &SamplesParams::default());
+        let lo = [-0.025, 0.0];
+        // A knee wall 1.2 m high, to where the roof meets it: a wall.
+        assert!(t.run(&column(2.6, 3.8, true), lo, 0.05, 50).is_ok());
+        // A gable 3 m high: a wall too.
+        assert!(t.run(&column(2.6, 5.6, true), lo, 0.05, 50).is_ok());
+        // Floor and roof with nothing between: not a wall.
+        assert_eq!(
+            t.run(&column(2.6, 4.5, false), lo, 0.05, 10),
+            Err(Reject::Gappy)
+        );
+        // Where the roof comes down to 0.8 m: too low for a wall.
+        assert_eq!(
+            t.run(&column(2.6, 3.4, true), lo, 0.05, 50),
+            Err(Reject::TooShort)
+        );
+    }
+
+    #[test]
+    fn without_a_floor_a_wall_reaches_down_from_the_ceiling() {
+        // A capture of the upper walls: the floor assumed at 1.6, the ceiling at 4.45.
+        let mut story = Story::flat(0, 1.6, 4.45, 1.5, 4.6);
+        story.floor_seen = false;
+        let t = Tests::new(&story, &SamplesParams::default());
+        let lo = [-0.025, 0.0];
+        // A wall seen from 2.1 up to a suspended ceiling at 3.9.
+        assert!(t.run(&column(2.1, 3.9, true), lo, 0.05, 50).is_ok());
+        // A duct hanging 1.1 m under the slab: too high up to be a wall.
+        assert_eq!(
+            t.run(&column(3.35, 4.45, true), lo, 0.05, 50),
+            Err(Reject::TooShort)
+        );
     }
 
     #[test]

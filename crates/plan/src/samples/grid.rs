@@ -673,13 +673,7 @@ mod tests {
     use super::*;
 
     fn story() -> Story {
-        Story {
-            level: 0,
-            floor_z: 0.0,
-            ceiling_z: 2.0,
-            z_min: 0.0,
-            z_max: 2.0,
-        }
+        Story::flat(0, 0.0, 2.0, 0.0, 2.0)
     }
 
     fn grid(xyz: &[[f32; 3]], range: Option<CellRange>) -> Grid {
@@ -748,13 +742,7 @@ mod tests {
         for p in &mut xyz[Blocks::SIZE..2 * Blocks::SIZE] {
             p[2] = 5.0;
         }
-        let upper = Story {
-            level: 1,
-            floor_z: 4.0,
-            ceiling_z: 6.0,
-            z_min: 3.0,
-            z_max: 7.0,
-        };
+        let upper = Story::flat(1, 4.0, 6.0, 3.0, 7.0);
         let (bounds, blocks) = StoryBounds::measure_all(&xyz, &[story(), upper]);
         assert_eq!(bounds[0].n, 2 * Blocks::SIZE);
         assert_eq!(bounds[1].n, Blocks::SIZE);
@@ -770,13 +758,7 @@ mod tests {
     #[test]
     fn bounds_of_all_stories_at_once_match_each_story_measured_alone() {
         let lower = story();
-        let upper = Story {
-            level: 1,
-            floor_z: 4.0,
-            ceiling_z: 6.0,
-            z_min: 2.0,
-            z_max: 7.0,
-        };
+        let upper = Story::flat(1, 4.0, 6.0, 2.0, 7.0);
         // Block 0 lies in the lower story, block 1 straddles both, block 2 holds a NaN.
         let n = Blocks::SIZE;
         let xyz: Vec<[f32; 3]> = (0..3 * n)

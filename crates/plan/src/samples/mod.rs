@@ -8,6 +8,7 @@
 
 mod cell;
 pub(crate) mod grid;
+mod spacing;
 mod views;
 
 use std::ops::Range;
@@ -23,6 +24,7 @@ use crate::stories::Story;
 use cell::{Reject, Tests};
 pub use grid::{Blocks, CellRange, GridFrame, StoryBounds};
 use grid::{Carry, Grid, Points, Screen, Summary};
+pub use spacing::SpacingProbe;
 use views::Views;
 
 /// Parameters of [`sample_walls`].
@@ -54,6 +56,10 @@ pub struct SamplesParams {
     /// (below about 45 points) otherwise fail the 12-of-16 test by chance. From about 45 points
     /// on the requirements are the paper's. `false` applies the paper's test as written.
     pub density_aware_histogram: bool,
+    /// Beyond the paper: widen `cell_size` to a few point spacings where the cloud is coarser
+    /// than it (voxel centres, downsampled clouds), as [`crate::Params::derive`] says. The value
+    /// used is reported as `cell_size_derived`, with the measured `point_spacing`.
+    pub derive_cell_size: bool,
 }
 
 /// The accepted values of [`SamplesParams`] (see [`crate::params::ParamRange`]).
@@ -80,6 +86,7 @@ impl Default for SamplesParams {
             min_confidence: 0.15,
             max_range: 10.0,
             density_aware_histogram: true,
+            derive_cell_size: true,
         }
     }
 }
@@ -303,12 +310,12 @@ pub(crate) fn check_params(params: &SamplesParams, story: &Story) -> Result<(), 
     check_values(params)?;
     let bad = |name, why: String| Err(SamplesError::BadParam { name, why });
     let positive = |v: f64| v.is_finite() && v > 0.0;
-    if !positive(story.ceiling_z - story.floor_z) {
+    if !positive(story.wall_top_z - story.floor_z) {
         return bad(
             "story",
             format!(
                 "ceiling {} is not above floor {}",
-                story.ceiling_z, story.floor_z
+                story.wall_top_z, story.floor_z
             ),
         );
     }
@@ -396,6 +403,9 @@ fn prefilter(tests: &Tests, block: &Summary, min_points: usize) -> Result<(), Re
     }
     if ((block.zmax - block.zmin) as f64) < tests.min_wall_height() {
         return Err(Reject::TooShort);
+    }
+    if tests.local() {
+        return Ok(());
     }
     tests.histogram(block.mask, min_points)
 }

@@ -8,13 +8,7 @@ use super::*;
 use crate::cloud::{ScanPose, Viewpoints};
 
 fn story() -> Story {
-    Story {
-        level: 0,
-        floor_z: 0.0,
-        ceiling_z: 3.0,
-        z_min: -0.5,
-        z_max: 3.5,
-    }
+    Story::flat(0, 0.0, 3.0, -0.5, 3.5)
 }
 
 /// A 3 m tall wall along x from `x0` to `x0 + 2` at y = `y`, with `density` points per m²

@@ -2,9 +2,11 @@
 //! sample seen only from far away is dropped.
 //!
 //! A point's viewer is its static scan's pose (by the `scan` slot), or the mobile trajectory's
-//! position at the point's time. Only viewpoints inside the story's z range are listed, so a
-//! scanner on another floor never becomes a viewpoint of this one; when no pose lies in the
-//! range (heights unknown), all are listed.
+//! position at the point's time. Only viewpoints standing within the story are listed
+//! ([`Story::holds_viewpoint`]), so a scanner on another floor never becomes a viewpoint of
+//! this one; nor does one on a gallery that sees down into a double-height room of the story
+//! below, over its walls (its lines of sight would cut those walls in 2D). When no scanner
+//! stands near the story at all (heights unknown), all are listed.
 
 use super::grid::Carry;
 use crate::cloud::{PointCloud, TrajectorySample, Viewpoints};
@@ -59,10 +61,13 @@ pub(super) struct Seen {
 
 impl<'a> Views<'a> {
     pub fn new(cloud: &'a PointCloud, story: &Story) -> Views<'a> {
-        let in_story = |p: &[f64; 3]| p[2] >= story.z_min && p[2] < story.z_max;
+        let in_story = |p: &[f64; 3]| story.holds_viewpoint(p[2]);
+        // Heights are taken as unknown only when no scanner stands anywhere near the story.
+        let reach = story.top_z - story.floor_z;
+        let near = |p: &[f64; 3]| p[2] >= story.z_min - reach && p[2] < story.z_max + reach;
         match &cloud.viewpoints {
             Viewpoints::Static(poses) if !poses.is_empty() => {
-                let any_inside = poses.iter().any(|p| in_story(&p.position));
+                let any_inside = poses.iter().any(|p| near(&p.position));
                 let mut viewpoints = Vec::new();
                 let listed = poses
                     .iter()
@@ -90,7 +95,7 @@ impl<'a> Views<'a> {
             Viewpoints::Trajectory(samples) if !samples.is_empty() => {
                 let mut traj = samples.clone();
                 traj.sort_by(|a, b| a.t.total_cmp(&b.t));
-                let any_inside = traj.iter().any(|s| in_story(&s.position));
+                let any_inside = traj.iter().any(|s| near(&s.position));
                 let inside: Vec<&TrajectorySample> = traj
                     .iter()
                     .filter(|s| !any_inside || in_story(&s.position))
@@ -343,13 +348,7 @@ mod tests {
     use crate::cloud::ScanPose;
 
     fn story() -> Story {
-        Story {
-            level: 0,
-            floor_z: 0.0,
-            ceiling_z: 3.0,
-            z_min: -0.5,
-            z_max: 3.5,
-        }
+        Story::flat(0, 0.0, 3.0, -0.5, 3.5)
     }
 
     fn pose(index: u32, position: [f64; 3]) -> ScanPose {
@@ -381,6 +380,34 @@ mod tests {
         assert_eq!(seen.normal, [0.0, -1.0]);
         assert_eq!(seen.seen_from, vec![0]);
         assert_eq!(seen.nearest, Some(2.0));
+    }
+
+    #[test]
+    fn a_gallery_scanner_is_no_viewpoint_of_the_story_below() {
+        // The ground floor of the house, its range running up to the roof as when the
+        // attic is not found: a scanner on the gallery at 4.1 m stands above its ceilings.
+        let mut ground = Story::flat(0, 0.0, 2.45, -0.1, 6.1);
+        ground.top_z = 2.6;
+        let cloud = PointCloud {
+            xyz: vec![[0.0, 0.0, 1.0]; 2],
+            scan: vec![0, 1],
+            scan_ids: vec![1, 2],
+            viewpoints: Viewpoints::Static(vec![
+                pose(1, [2.0, 2.0, 1.5]),
+                pose(2, [4.45, 4.0, 4.1]),
+            ]),
+            ..Default::default()
+        };
+        assert_eq!(Views::new(&cloud, &ground).viewpoints, vec![[2.0, 2.0]]);
+        // Scanners far from every story (poses with unknown heights) are all listed.
+        let far = PointCloud {
+            viewpoints: Viewpoints::Static(vec![
+                pose(1, [2.0, 2.0, 101.5]),
+                pose(2, [4.45, 4.0, 104.1]),
+            ]),
+            ..cloud
+        };
+        assert_eq!(Views::new(&far, &ground).viewpoints.len(), 2);
     }
 
     #[test]

@@ -21,20 +21,31 @@ pub struct Surface {
     pub z: [f64; 2],
 }
 
-/// A horizontal convex quadrilateral: a table top or the underside of a lintel.
+/// A flat convex quadrilateral: a table top, the underside of a lintel, a partial floor or
+/// ceiling, or a roof plane.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Patch {
-    /// Corners in order (either winding).
+    /// Corners in order (either winding), as seen from above.
     pub corners: [P2; 4],
+    /// Height at the first corner.
     pub z: f64,
+    /// Rise per metre in x and y: zero for horizontal patches, the pitch of a roof plane.
+    pub slope: P2,
 }
 
 impl Patch {
-    fn from_rect(r: Rect, z: f64) -> Patch {
+    pub(super) fn from_rect(r: Rect, z: f64) -> Patch {
         Patch {
             corners: [[r.x0, r.y0], [r.x1, r.y0], [r.x1, r.y1], [r.x0, r.y1]],
             z,
+            slope: [0.0, 0.0],
         }
+    }
+
+    /// The patch's height over `p` (on its plane).
+    pub fn z_at(&self, p: P2) -> f64 {
+        let c = self.corners[0];
+        self.z + self.slope[0] * (p[0] - c[0]) + self.slope[1] * (p[1] - c[1])
     }
 
     /// True when `p` is inside the quadrilateral.
@@ -51,6 +62,12 @@ impl Patch {
 pub struct StoryModel {
     pub floor_z: f64,
     pub ceiling_z: f64,
+    /// Rays stop at the planes `floor_z` and `ceiling_z`, everywhere. False for buildings whose
+    /// levels see into each other (galleries, double-height rooms, roofs): their floors and
+    /// ceilings are patches, and every story holds the whole building's surfaces.
+    pub slabs: bool,
+    /// Points below this height are not recorded: a capture aimed at the ceiling.
+    pub capture_above: Option<f64>,
     pub surfaces: Vec<Surface>,
     pub patches: Vec<Patch>,
     /// Static scanner stations (x, y); the scanner head stands 1.5 m above the floor.
@@ -79,16 +96,45 @@ pub enum BuildingKind {
     CurvedLobby,
     /// Two rooms in an L, rotated 27° off the axes.
     RotatedL,
+    /// A house with a pitched roof: a ground floor whose living room is open to the roof, and
+    /// an attic (knee walls 1.2 m, sloped ceiling) with a gallery over the living room and a
+    /// station on it 4.1 m up.
+    AtticHouse,
+    /// A 6 m high hall with a mezzanine 3 m up along one side, over two rooms.
+    MezzanineHall,
+    /// Two stories of about 30 rooms each (2.9 m wide, 10 cm partitions) on a corridor, one
+    /// station a room; meant to be scanned sparsely (about 15,000 points a station).
+    DenseOffice,
+    /// [`BuildingKind::DenseOffice`], its cloud reduced to the centres of occupied 8 cm voxels.
+    DenseOfficeVoxels,
+    /// An L-shaped room captured from the ceiling down to 1.5 m only: no floor.
+    CeilingOnly,
+    /// Rooms divided by 10 cm partitions, 1.2 m × 1.5 m closets, a bathroom and a stub wall.
+    Partitions,
 }
 
 impl BuildingKind {
     /// Every building, by its command-line name.
-    pub const ALL: [(&'static str, BuildingKind); 4] = [
+    pub const ALL: [(&'static str, BuildingKind); 10] = [
         ("square_room", BuildingKind::SquareRoom),
         ("office_3story", BuildingKind::Office3Story),
         ("curved_lobby", BuildingKind::CurvedLobby),
         ("rotated_l", BuildingKind::RotatedL),
+        ("attic_house", BuildingKind::AtticHouse),
+        ("mezzanine_hall", BuildingKind::MezzanineHall),
+        ("dense_office", BuildingKind::DenseOffice),
+        ("dense_office_voxels", BuildingKind::DenseOfficeVoxels),
+        ("ceiling_only", BuildingKind::CeilingOnly),
+        ("partitions", BuildingKind::Partitions),
     ];
+
+    /// The voxel size the building's cloud is reduced to, when it is a voxelised class.
+    pub fn voxel(self) -> Option<f64> {
+        match self {
+            BuildingKind::DenseOfficeVoxels => Some(0.08),
+            _ => None,
+        }
+    }
 
     /// The building's name, as `asbuilt simulate --building` takes it.
     pub fn name(self) -> &'static str {
@@ -114,6 +160,13 @@ impl BuildingKind {
             BuildingKind::Office3Story => (0..3).map(office_story).collect(),
             BuildingKind::CurvedLobby => vec![curved_lobby()],
             BuildingKind::RotatedL => vec![rotated_l()],
+            BuildingKind::AtticHouse => super::multilevel::attic_house(),
+            BuildingKind::MezzanineHall => super::multilevel::mezzanine_hall(),
+            BuildingKind::DenseOffice | BuildingKind::DenseOfficeVoxels => {
+                (0..2).map(super::rooms::dense_office_story).collect()
+            }
+            BuildingKind::CeilingOnly => vec![super::rooms::ceiling_only_story()],
+            BuildingKind::Partitions => vec![super::rooms::partitions_story()],
         };
         let mut stories = stories;
         for (level, s) in stories.iter_mut().enumerate() {
@@ -128,20 +181,30 @@ impl BuildingKind {
 
 /// A story described with rectangles, before it becomes surfaces.
 #[derive(Default)]
-struct RectStory {
-    floor_z: f64,
-    ceiling_z: f64,
-    open: Vec<Rect>,
-    doors: Vec<Rect>,
-    solid: Vec<Rect>,
-    round_columns: Vec<(P2, f64)>,
-    tables: Vec<Rect>,
-    stations: Vec<P2>,
-    route: Vec<P2>,
+pub(super) struct RectStory {
+    pub floor_z: f64,
+    pub ceiling_z: f64,
+    pub open: Vec<Rect>,
+    pub doors: Vec<Rect>,
+    pub solid: Vec<Rect>,
+    pub round_columns: Vec<(P2, f64)>,
+    pub tables: Vec<Rect>,
+    pub stations: Vec<P2>,
+    pub route: Vec<P2>,
+}
+
+/// A level's open floor and walls, and what rays can hit there.
+pub(super) struct LevelParts {
+    pub polygons: Vec<Polygon>,
+    pub walls: Vec<TruthWall>,
+    pub surfaces: Vec<Surface>,
+    pub patches: Vec<Patch>,
 }
 
 impl RectStory {
-    fn into_model(self) -> StoryModel {
+    /// The open floor, its walls as surfaces from the floor to `top`, door lintels from door
+    /// height to `top`, and the tables.
+    pub(super) fn parts(&self, top: f64) -> LevelParts {
         let mut open = self.open.clone();
         open.extend(&self.doors);
         let mut polygons = outline(&open, &self.solid);
@@ -149,7 +212,7 @@ impl RectStory {
         for &(center, radius) in &self.round_columns {
             add_round_column(&mut polygons, &mut walls, center, radius);
         }
-        let (f, c) = (self.floor_z, self.ceiling_z);
+        let (f, c) = (self.floor_z, top);
         let mut surfaces: Vec<Surface> = walls
             .iter()
             .map(|&curve| Surface { curve, z: [f, c] })
@@ -183,19 +246,32 @@ impl RectStory {
             }
             patches.push(Patch::from_rect(*t, f + TABLE_HEIGHT));
         }
+        LevelParts {
+            polygons,
+            walls,
+            surfaces,
+            patches,
+        }
+    }
+
+    pub(super) fn into_model(self) -> StoryModel {
+        let (f, c) = (self.floor_z, self.ceiling_z);
+        let parts = self.parts(c);
         StoryModel {
             floor_z: f,
             ceiling_z: c,
-            surfaces,
-            patches,
+            slabs: true,
+            capture_above: None,
+            surfaces: parts.surfaces,
+            patches: parts.patches,
             stations: self.stations,
             route: self.route,
             truth: TruthStory {
                 level: 0,
                 floor_z: f,
                 ceiling_z: c,
-                polygons,
-                walls,
+                polygons: parts.polygons,
+                walls: parts.walls,
             },
         }
     }
@@ -239,7 +315,7 @@ fn add_round_column(polygons: &mut [Polygon], walls: &mut Vec<TruthWall>, center
 }
 
 /// Rotates a story by `angle` about the origin, then moves it by `d`.
-fn transform(mut s: StoryModel, angle: f64, d: P2) -> StoryModel {
+pub(super) fn transform(mut s: StoryModel, angle: f64, d: P2) -> StoryModel {
     let m = |p: P2| add(rotate(p, angle), d);
     for surface in &mut s.surfaces {
         surface.curve = surface.curve.transformed(angle, d);
@@ -415,6 +491,8 @@ fn curved_lobby() -> StoryModel {
     StoryModel {
         floor_z: f,
         ceiling_z: c,
+        slabs: true,
+        capture_above: None,
         surfaces,
         patches: Vec::new(),
         stations: vec![
@@ -547,6 +625,78 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    #[test]
+    fn the_house_has_an_attic_over_its_ground_floor_and_a_gallery_station() {
+        let b = BuildingKind::AtticHouse.build();
+        assert_eq!(b.stories.len(), 2);
+        let (ground, attic) = (&b.stories[0], &b.stories[1]);
+        // Living room 4 × 8, kitchen 5.85 × 3.9, bedroom 3.75 × 4, bathroom 2 × 4, four doors.
+        let want = 32.0 + 5.85 * 3.9 + 3.75 * 4.0 + 8.0 + 2.0 * 0.15 * 0.9 + 0.09 + 0.08;
+        assert!(
+            (area(&ground.truth) - want).abs() < 1e-9,
+            "{}",
+            area(&ground.truth)
+        );
+        // The attic's plan runs over the living room's void: 10 × 8 less the partition.
+        assert!((area(&attic.truth) - (80.0 - 0.8 + 0.09)).abs() < 1e-9);
+        assert!(!ground.slabs && !attic.slabs);
+        // Both stories see the whole house: a ray from the gallery station down over the
+        // railing reaches the living room's floor, one up reaches the roof.
+        let gallery = [4.45, 4.0, attic.floor_z + crate::simulate::STATION_HEIGHT];
+        assert_eq!(attic.stations[0], [gallery[0], gallery[1]]);
+        assert!((gallery[2] - 4.1).abs() < 1e-12);
+        let v = [0.5 - gallery[0], 2.0 - gallery[1], -gallery[2]];
+        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        let down = v.map(|c| c / n);
+        let t = crate::simulate::scanner::cast(attic, gallery, down).unwrap();
+        assert!(
+            (t - n).abs() < 1e-9,
+            "over the railing to the living room's floor: {t}"
+        );
+        let up = crate::simulate::scanner::cast(attic, gallery, [0.0, 0.0, 1.0]).unwrap();
+        assert!((gallery[2] + up - 6.0).abs() < 1e-9, "the ridge over y = 4");
+    }
+
+    #[test]
+    fn the_mezzanine_level_spans_the_hall() {
+        let b = BuildingKind::MezzanineHall.build();
+        assert_eq!(b.stories.len(), 2);
+        assert_eq!(b.stories[1].floor_z, 3.0);
+        // 20 × 12 less the column, the partition and its door opening.
+        let want = 240.0 - 0.16 - 0.4 + 0.09;
+        assert!((area(&b.stories[1].truth) - want).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_dense_office_has_about_thirty_rooms_a_story() {
+        let b = BuildingKind::DenseOffice.build();
+        assert_eq!(b.stories.len(), 2);
+        for s in &b.stories {
+            // One connected floor; each room gives a station, plus nine in the corridor.
+            assert_eq!(s.truth.polygons.len(), 1);
+            let rooms = s.stations.len() - 9;
+            assert!((28..=30).contains(&rooms), "{rooms}");
+        }
+        assert_eq!(BuildingKind::DenseOfficeVoxels.voxel(), Some(0.08));
+        assert_eq!(BuildingKind::DenseOffice.voxel(), None);
+    }
+
+    #[test]
+    fn closets_are_1_2_by_1_5_metres() {
+        let b = BuildingKind::Partitions.build();
+        let s = &b.stories[0].truth;
+        assert_eq!(s.polygons.len(), 1);
+        // Three closets: 1.2 × 1.5 each, a 10 cm partition between each and its room.
+        for (x, y) in [(0.6, 4.25), (11.7, 4.25), (2.5, 7.45)] {
+            let walls: Vec<f64> = s.walls.iter().map(|w| w.distance([x, y])).collect();
+            let nearest = walls.iter().copied().fold(f64::MAX, f64::min);
+            assert!(
+                (nearest - 0.6).abs() < 1e-9,
+                "closet at {x}, {y}: {nearest}"
+            );
         }
     }
 

@@ -13,8 +13,10 @@
 //! the result does not depend on how rayon schedules the blocks.
 
 pub mod buildings;
+mod multilevel;
 pub mod random;
 pub mod rects;
+pub mod rooms;
 pub mod scanner;
 pub mod truth;
 
@@ -58,6 +60,10 @@ pub struct ScanOptions {
     pub mobile: bool,
     /// World coordinates of the building's origin (a large value tests georeferenced input).
     pub offset: [f64; 3],
+    /// Reduce the cloud to the centres of the occupied voxels of this size, metres, as an
+    /// occupancy map or a downsampling tool does (each keeps its first point's scan and time).
+    /// `None` keeps every point, unless the building is a voxelised class.
+    pub voxel: Option<f64>,
 }
 
 impl Default for ScanOptions {
@@ -69,6 +75,7 @@ impl Default for ScanOptions {
             registration: None,
             mobile: false,
             offset: [0.0; 3],
+            voxel: None,
         }
     }
 }
@@ -90,7 +97,12 @@ pub struct Simulation {
 
 /// Builds `kind` and scans it.
 pub fn simulate(kind: BuildingKind, options: &ScanOptions) -> Result<Simulation, SimulateError> {
-    scan(&kind.build(), options)
+    // A kind that stands for a voxelised cloud is voxelised unless the options say otherwise.
+    let options = ScanOptions {
+        voxel: options.voxel.or(kind.voxel()),
+        ..options.clone()
+    };
+    scan(&kind.build(), &options)
 }
 
 /// Scans any building, named or not.
@@ -101,6 +113,9 @@ pub fn scan(building: &Building, options: &ScanOptions) -> Result<Simulation, Si
     } else {
         scan_static(building, options)
     };
+    if let Some(size) = options.voxel {
+        voxelize(&mut cloud, size);
+    }
     cloud.origin = options.offset;
     cloud.source = SourceInfo {
         format: "memory".into(),
@@ -145,6 +160,11 @@ fn check(o: &ScanOptions) -> Result<(), SimulateError> {
             );
         }
     }
+    if let Some(v) = o.voxel {
+        if !(v.is_finite() && (0.001..=1.0).contains(&v)) {
+            return bad("voxel", format!("must be from 0.001 to 1 m, not {v}"));
+        }
+    }
     if !o.offset.iter().all(|c| c.is_finite() && c.abs() < 1.0e9) {
         return bad(
             "offset",
@@ -152,6 +172,30 @@ fn check(o: &ScanOptions) -> Result<(), SimulateError> {
         );
     }
     Ok(())
+}
+
+/// Replaces the points by the centres of the occupied cubes of a `size` grid, in the order each
+/// cube was first hit; each centre keeps that first point's scan slot and time.
+fn voxelize(cloud: &mut PointCloud, size: f64) {
+    let mut seen = std::collections::HashSet::with_capacity(cloud.len() / 4);
+    let key = |p: &[f32; 3]| p.map(|c| (c as f64 / size).floor() as i64);
+    let mut keep = Vec::with_capacity(cloud.len() / 4);
+    for (i, p) in cloud.xyz.iter().enumerate() {
+        if seen.insert(key(p)) {
+            keep.push(i);
+        }
+    }
+    let xyz = keep
+        .iter()
+        .map(|&i| key(&cloud.xyz[i]).map(|k| ((k as f64 + 0.5) * size) as f32))
+        .collect();
+    cloud.xyz = xyz;
+    if !cloud.scan.is_empty() {
+        cloud.scan = keep.iter().map(|&i| cloud.scan[i]).collect();
+    }
+    if !cloud.time.is_empty() {
+        cloud.time = keep.iter().map(|&i| cloud.time[i]).collect();
+    }
 }
 
 /// A yaw rotation as a `[w, x, y, z]` quaternion.
@@ -210,6 +254,7 @@ fn scan_static(building: &Building, o: &ScanOptions) -> PointCloud {
             let (sin, cos) = s.error_yaw.sin_cos();
             (0..n)
                 .filter_map(|_| scanner::measure(s.story, s.position, &mut rng, noise.as_ref()))
+                .filter(|p| s.story.capture_above.is_none_or(|z| p[2] >= z))
                 .map(|p| {
                     let v = [p[0] - s.position[0], p[1] - s.position[1]];
                     [
@@ -321,7 +366,9 @@ fn scan_mobile(building: &Building, o: &ScanOptions) -> PointCloud {
                 let f = (i as f64 + 0.5) / n as f64;
                 let (xy, _) = along(&story.route, f * d * MOBILE_SPEED);
                 let origin = [xy[0], xy[1], story.floor_z + MOBILE_HEIGHT];
-                if let Some(p) = scanner::measure(story, origin, &mut rng, noise.as_ref()) {
+                let p = scanner::measure(story, origin, &mut rng, noise.as_ref())
+                    .filter(|p| story.capture_above.is_none_or(|z| p[2] >= z));
+                if let Some(p) = p {
                     xyz.push(p.map(|c| c as f32));
                     time.push(t0 + f * d);
                 }
@@ -418,6 +465,53 @@ mod tests {
         assert!(sim.cloud.time.iter().all(|&t| t >= t0 && t <= t1));
         assert!(sim.cloud.time.windows(2).all(|w| w[0] <= w[1]));
         assert_eq!(sim.cloud.origin, opts.offset);
+    }
+
+    #[test]
+    fn voxels_are_distinct_centres_keeping_their_first_scan() {
+        let opts = ScanOptions {
+            points: 20_000,
+            voxel: Some(0.1),
+            ..Default::default()
+        };
+        let sim = simulate(BuildingKind::SquareRoom, &opts).unwrap();
+        sim.cloud.check().unwrap();
+        assert!(sim.cloud.len() < 20_000);
+        let keys: std::collections::HashSet<[i64; 3]> = sim
+            .cloud
+            .xyz
+            .iter()
+            .map(|p| {
+                // Every coordinate is an odd multiple of 5 cm: a voxel centre.
+                for c in p {
+                    let k = (*c as f64 / 0.05).round();
+                    assert!(
+                        (*c as f64 - 0.05 * k).abs() < 1e-5 && k as i64 % 2 != 0,
+                        "{p:?}"
+                    );
+                }
+                p.map(|c| (c as f64 / 0.1).floor() as i64)
+            })
+            .collect();
+        assert_eq!(keys.len(), sim.cloud.len(), "no voxel twice");
+        assert_eq!(sim.cloud.scan.len(), sim.cloud.len());
+        let bad = ScanOptions {
+            voxel: Some(0.0),
+            ..Default::default()
+        };
+        assert!(simulate(BuildingKind::SquareRoom, &bad).is_err());
+    }
+
+    #[test]
+    fn a_ceiling_capture_records_nothing_low() {
+        let opts = ScanOptions {
+            points: 20_000,
+            ..Default::default()
+        };
+        let sim = simulate(BuildingKind::CeilingOnly, &opts).unwrap();
+        let low = rooms::CEILING_CAPTURE_ABOVE as f32;
+        assert!(sim.cloud.xyz.iter().all(|p| p[2] >= low));
+        assert!(sim.cloud.len() > 5_000);
     }
 
     #[test]

@@ -16,7 +16,9 @@ const MIN_ELEVATION: f64 = -60.0 * std::f64::consts::PI / 180.0;
 /// The distance along the unit direction `d` from `o` to the first surface, floor or ceiling.
 pub fn cast(story: &StoryModel, o: [f64; 3], d: [f64; 3]) -> Option<f64> {
     let mut best = f64::INFINITY;
-    if d[2] < 0.0 {
+    if !story.slabs {
+        // Floors and ceilings are patches.
+    } else if d[2] < 0.0 {
         best = (story.floor_z - o[2]) / d[2];
     } else if d[2] > 0.0 {
         best = (story.ceiling_z - o[2]) / d[2];
@@ -83,10 +85,19 @@ fn hit_surface(s: &Surface, o: [f64; 3], d: [f64; 3], best: f64) -> Option<f64> 
 }
 
 fn hit_patch(p: &Patch, o: [f64; 3], d: [f64; 3], best: f64) -> Option<f64> {
-    if d[2] == 0.0 {
-        return None;
-    }
-    let t = (p.z - o[2]) / d[2];
+    let t = if p.slope == [0.0, 0.0] {
+        if d[2] == 0.0 {
+            return None;
+        }
+        (p.z - o[2]) / d[2]
+    } else {
+        // o_z + t d_z = z_at(o_xy + t d_xy), the patch's plane rising along its slope.
+        let rise = d[2] - (p.slope[0] * d[0] + p.slope[1] * d[1]);
+        if rise == 0.0 {
+            return None;
+        }
+        (p.z_at([o[0], o[1]]) - o[2]) / rise
+    };
     (t > EPS && t < best && p.contains([o[0] + t * d[0], o[1] + t * d[1]])).then_some(t)
 }
 
@@ -126,6 +137,28 @@ pub fn measure(
 mod tests {
     use super::*;
     use crate::simulate::buildings::BuildingKind;
+
+    #[test]
+    fn rays_hit_a_sloped_patch_on_its_plane() {
+        let mut story = BuildingKind::SquareRoom.build().stories.remove(0);
+        story.slabs = false;
+        story.surfaces.clear();
+        // A roof rising 0.5 m per metre in y from z = 3 at y = 0, over 10 m × 10 m.
+        story.patches = vec![Patch {
+            corners: [[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]],
+            z: 3.0,
+            slope: [0.0, 0.5],
+        }];
+        let o = [5.0, 2.0, 1.0];
+        // Straight up: the roof at y = 2 is at 4.
+        assert!((cast(&story, o, [0.0, 0.0, 1.0]).unwrap() - 3.0).abs() < 1e-12);
+        // Towards +y at 45°, s = t/√2 along each axis: 1 + s = 3 + 0.5 (2 + s), so s = 6.
+        let k = std::f64::consts::FRAC_1_SQRT_2;
+        let t = cast(&story, o, [0.0, k, k]).unwrap();
+        assert!((t * k - 6.0).abs() < 1e-9, "{t}");
+        // Down: no floor plane without slabs, and no patch below.
+        assert_eq!(cast(&story, o, [0.0, 0.0, -1.0]), None);
+    }
 
     #[test]
     fn rays_hit_walls_floor_and_ceiling_of_the_square_room() {
