@@ -10,6 +10,7 @@
 //!   [`stories`] → [`samples`] → [`smoothing`] → [`labeling`] → [`cleanup`] → [`boundary`] → [`fitting`].
 //! - [`params::Params`] holds every stage's parameters, with the paper's defaults.
 //! - [`cloud::PointCloud`] is the input, [`plan::FloorPlan`] the output.
+//! - [`viewpoints`] estimates scanner positions the input does not give.
 //! - [`io`] reads clouds and pose sidecars and writes GeoJSON, SVG and DXF.
 //! - [`simulate`] builds and scans synthetic buildings with exact ground truth; [`evaluate`] scores plans.
 
@@ -30,6 +31,7 @@ pub mod simulate;
 pub mod smoothing;
 pub mod stories;
 pub mod streaming;
+pub mod viewpoints;
 
 pub use cloud::PointCloud;
 pub use params::Params;

@@ -8,6 +8,7 @@ use crate::labeling::LabelingParams;
 use crate::samples::SamplesParams;
 use crate::smoothing::SmoothingParams;
 use crate::stories::StoriesParams;
+use crate::viewpoints::ViewpointsParams;
 
 /// The parameters of a whole run; each field is one stage's parameter struct.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -19,6 +20,8 @@ pub struct Params {
     pub labeling: LabelingParams,
     pub cleanup: CleanupParams,
     pub fitting: FittingParams,
+    /// Scanner positions when the input gives none (beyond the paper).
+    pub viewpoints: ViewpointsParams,
     /// Include each story's wall samples as a `wall_samples` feature.
     pub emit_samples: bool,
 }
@@ -118,6 +121,11 @@ impl Params {
             Err(FittingError::BadParam { name, why }) => return Err(named("fitting", name, why)),
             Err(e) => return Err(named("fitting", "?", e.to_string())),
             Ok(()) => {}
+        }
+        if let Err(crate::viewpoints::ViewpointsError::BadParam { name, why }) =
+            self.viewpoints.check()
+        {
+            return Err(named("viewpoints", name, why));
         }
         Ok(())
     }

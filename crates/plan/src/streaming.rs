@@ -230,7 +230,15 @@ pub fn plan_file(
                 continue;
             };
             let core = tiling.core(t, frame);
-            match scan_cells(&cloud, None, story, &params.samples, frame, core) {
+            match scan_cells(
+                &cloud,
+                &skeleton.viewpoints,
+                None,
+                story,
+                &params.samples,
+                frame,
+                core,
+            ) {
                 Ok(scan) => list.push(scan),
                 Err(e) => *entry = Err(e),
             }
@@ -240,9 +248,15 @@ pub fn plan_file(
         .into_iter()
         .zip(&stories)
         .map(|(entry, story)| {
-            Some(
-                entry.and_then(|(_, list)| finish_samples(&skeleton, story, &params.samples, list)),
-            )
+            Some(entry.and_then(|(_, list)| {
+                finish_samples(
+                    &skeleton,
+                    &skeleton.viewpoints,
+                    story,
+                    &params.samples,
+                    list,
+                )
+            }))
         })
         .collect();
     timings.add(Stage::Samples.name(), ms(clock));

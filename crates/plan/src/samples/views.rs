@@ -58,16 +58,18 @@ pub(super) struct Seen {
 }
 
 impl<'a> Views<'a> {
-    pub fn new(cloud: &'a PointCloud, story: &Story) -> Views<'a> {
+    /// The `viewpoints` (the cloud's own, or estimated) of `cloud`'s scans in `story`.
+    pub fn new(cloud: &'a PointCloud, viewpoints: &Viewpoints, story: &Story) -> Views<'a> {
         let in_story = |p: &[f64; 3]| p[2] >= story.z_min && p[2] < story.z_max;
-        match &cloud.viewpoints {
+        match viewpoints {
             Viewpoints::Static(poses) if !poses.is_empty() => {
                 let any_inside = poses.iter().any(|p| in_story(&p.position));
                 let mut viewpoints = Vec::new();
                 let listed = poses
                     .iter()
                     .map(|p| {
-                        (!any_inside || in_story(&p.position)).then(|| {
+                        let known = p.position.iter().all(|c| c.is_finite());
+                        (known && (!any_inside || in_story(&p.position))).then(|| {
                             viewpoints.push([p.position[0], p.position[1]]);
                             viewpoints.len() as u32 - 1
                         })
@@ -205,7 +207,11 @@ impl<'a> Views<'a> {
         let Kind::Static { poses, listed, .. } = &self.kind else {
             return None;
         };
-        Some((*poses.get(slot)?, *listed.get(slot)?))
+        // A scan whose position could not be estimated is non-finite: it saw nothing.
+        let p = poses
+            .get(slot)
+            .filter(|p| p[0].is_finite() && p[1].is_finite())?;
+        Some((*p, *listed.get(slot)?))
     }
 }
 
@@ -372,7 +378,7 @@ mod tests {
             ]),
             ..Default::default()
         };
-        let views = Views::new(&cloud, &story());
+        let views = Views::new(&cloud, &cloud.viewpoints, &story());
         assert_eq!(views.viewpoints, vec![[0.0, -2.0]]);
         // Points 0 and 1 come from the listed scan, 2 and 3 from the upper one: a tie of
         // votes (the normal faces both), broken by the nearer scanner at y = -2.
@@ -400,7 +406,7 @@ mod tests {
             viewpoints: Viewpoints::Trajectory(traj),
             ..Default::default()
         };
-        let views = Views::new(&cloud, &story());
+        let views = Views::new(&cloud, &cloud.viewpoints, &story());
         assert_eq!(views.path.len(), 11);
         // Every centimetre along the 1 m path, interpolated between the samples.
         assert_eq!(views.viewpoints.len(), 101, "{:?}", views.viewpoints.len());
@@ -424,7 +430,7 @@ mod tests {
             xyz: vec![[0.0, 0.0, 1.0]],
             ..Default::default()
         };
-        let views = Views::new(&cloud, &story());
+        let views = Views::new(&cloud, &cloud.viewpoints, &story());
         assert_eq!(views.carry(), Carry::Nothing);
         let seen = views.observe(&[], &[], 1, [0.0, 0.0], [0.0, 1.0]);
         assert_eq!(seen.normal, [0.0, 1.0]);
