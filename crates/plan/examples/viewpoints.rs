@@ -3,6 +3,7 @@
 //! ```sh
 //! cargo run --release -p asbuilt-plan --example viewpoints -- table [--points N] [--seed S]
 //!     [--buildings a,b] [--modes poses,scan-ids,plain] [--mobile] [--out DIR]
+//!     [--param section.name=value ...]
 //! cargo run --release -p asbuilt-plan --example viewpoints -- real CLOUD POSES.json [--out DIR]
 //! ```
 //!
@@ -40,9 +41,19 @@ fn flag(args: &[String], name: &str) -> Option<String> {
         .and_then(|i| args.get(i + 1).cloned())
 }
 
+/// The parameters, with every `--param section.name=value` of the command line applied.
+fn params() -> Params {
+    let args: Vec<String> = std::env::args().collect();
+    let mut p = Params::default();
+    for w in args.windows(2).filter(|w| w[0] == "--param") {
+        p.set(&w[1]).expect("a parameter");
+    }
+    p
+}
+
 fn plan(cloud: &PointCloud) -> (FloorPlan, f64) {
     let start = std::time::Instant::now();
-    let plan = asbuilt_plan::plan(cloud, &Params::default(), &mut NoProgress).expect("a plan");
+    let plan = asbuilt_plan::plan(cloud, &params(), &mut NoProgress).expect("a plan");
     (plan, start.elapsed().as_secs_f64())
 }
 
@@ -197,7 +208,7 @@ fn table(args: &[String]) {
 
 /// The path the pipeline estimates for a mobile cloud without its trajectory.
 fn estimated_path(cloud: &PointCloud) -> Vec<TrajectorySample> {
-    let e = asbuilt_plan::viewpoints::estimate(cloud, &Default::default());
+    let e = asbuilt_plan::viewpoints::estimate(cloud, &params().viewpoints);
     match e.viewpoints {
         Some(Viewpoints::Trajectory(t)) => t,
         _ => Vec::new(),

@@ -14,7 +14,7 @@
 //!    `z = apex_z − slope · |xy − apex_xy|` to the lowest point of each sector (the apex height
 //!    fixed half way up the scan), the sectors re-chosen around the new apex at every step. The apex with most sectors on its cone wins.
 
-use nalgebra::{Matrix4, Vector4};
+use nalgebra::{Matrix6, Vector6};
 
 use super::raster::Raster;
 use crate::geom::P2;
@@ -52,8 +52,11 @@ impl Default for ConeParams {
 /// A fitted blind cone.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Cone {
-    /// The scanner: the cone's apex, local frame.
+    /// The scanner: the cone's apex, local frame (for a moving scanner, at the window's
+    /// reference time).
     pub apex: [f64; 3],
+    /// A moving scanner's horizontal velocity, m per time unit; zero for a static scan.
+    pub velocity: [f64; 2],
     /// tan of the lowest elevation's depression.
     pub slope: f64,
     /// Sectors whose lowest point lies on the cone, of `sectors`.
@@ -68,6 +71,9 @@ const SLOPE: (f64, f64) = (0.2, 5.0);
 pub(crate) const MIN_POINTS: usize = 200;
 /// Fewer supporting sectors than this fraction is no blind cone.
 const MIN_SUPPORT: f64 = 0.2;
+/// A moving scanner's blind spot is sought among this share of a window's points, those
+/// nearest its reference time.
+const SEED_SHARE: usize = 8;
 /// Rasters stay below this many cells.
 const MAX_CELLS: usize = 1 << 21;
 
@@ -87,21 +93,121 @@ pub(crate) fn locate(points: &[[f32; 3]], params: &ConeParams) -> Option<Cone> {
         let z0 = zl + 0.5 * span;
         let slope = ((z0 - zl) / radius).clamp(SLOPE.0, SLOPE.1);
         let height = (zl + 0.2 * span, zh - 0.05 * span);
+        let start = Cone::at([center[0], center[1], z0], slope);
         for h in [None, Some(height)] {
-            let fitted = fit_cone(&pts, [center[0], center[1], z0], slope, h, params);
-            let Some(cone) = fitted else {
-                continue;
-            };
-            let better = |b: &Cone| {
-                cone.support > b.support
-                    || (cone.support == b.support && cone.residual < b.residual)
-            };
-            if best.as_ref().is_none_or(better) {
-                best = Some(cone);
-            }
+            let fitted = fit_cone(
+                &Obs {
+                    pts: &pts,
+                    dt: None,
+                },
+                start,
+                h,
+                params,
+            );
+            best = better(best, fitted);
         }
     }
     best.filter(|c| c.support as f64 >= MIN_SUPPORT * params.sectors as f64)
+}
+
+/// Locates a moving scanner over one short time window: the points with their `times`, the
+/// scanner taken to move in a straight line at a steady speed. The result's apex is where it
+/// was at `t_ref`. `seed` (say, the last window's answer moved on to `t_ref`) is tried first;
+/// the empty places of [`locate`] are tried when it fails.
+pub(crate) fn locate_moving(
+    points: &[[f32; 3]],
+    times: &[f64],
+    t_ref: f64,
+    seed: Option<Cone>,
+    params: &ConeParams,
+) -> Option<Cone> {
+    if points.len() < MIN_POINTS || points.len() != times.len() {
+        return None;
+    }
+    let pts: Vec<[f64; 3]> = points.iter().map(|p| p.map(f64::from)).collect();
+    let dt: Vec<f64> = times.iter().map(|t| t - t_ref).collect();
+    let obs = Obs {
+        pts: &pts,
+        dt: Some(&dt),
+    };
+    let enough = |c: &Cone| c.support as f64 >= MIN_SUPPORT * params.sectors as f64;
+    if let Some(s) = seed {
+        let fitted = fit_cone(&obs, s, None, params).filter(enough);
+        if fitted.is_some() {
+            return fitted;
+        }
+    }
+    let (zl, zh) = z_range(&pts)?;
+    let span = zh - zl;
+    let z0 = seed.map_or(zl + 0.5 * span, |s| s.apex[2]);
+    let mut best = None;
+    // Over the whole window the moving scanner saw the floor under most of its path; only the
+    // points of a short time around `t_ref` leave its blind spot empty. Their empty places
+    // seed the fit.
+    let mut near: Vec<usize> = (0..pts.len()).collect();
+    near.sort_by(|&a, &b| dt[a].abs().total_cmp(&dt[b].abs()));
+    near.truncate((pts.len() / SEED_SHARE).max(MIN_POINTS));
+    let middle: Vec<[f64; 3]> = near.iter().map(|&i| pts[i]).collect();
+    let seeds = seed_circles(&middle, zl + 0.25 * span, params);
+    for (center, radius) in seeds {
+        let slope = ((z0 - zl) / radius).clamp(SLOPE.0, SLOPE.1);
+        best = better(
+            best,
+            fit_cone(
+                &obs,
+                Cone::at([center[0], center[1], z0], slope),
+                None,
+                params,
+            ),
+        );
+    }
+    best.filter(enough)
+}
+
+/// The better of two fits: more sectors on the cone, then the smaller residual.
+fn better(best: Option<Cone>, new: Option<Cone>) -> Option<Cone> {
+    match (best, new) {
+        (Some(b), Some(n)) => {
+            let wins = n.support > b.support || (n.support == b.support && n.residual < b.residual);
+            Some(if wins { n } else { b })
+        }
+        (b, n) => b.or(n),
+    }
+}
+
+impl Cone {
+    /// A starting guess: a static apex and a slope.
+    fn at(apex: [f64; 3], slope: f64) -> Cone {
+        Cone {
+            apex,
+            velocity: [0.0; 2],
+            slope,
+            support: 0,
+            residual: 0.0,
+        }
+    }
+
+    /// Where the scanner was `dt` after the reference time.
+    pub fn position(&self, dt: f64) -> [f64; 3] {
+        [
+            self.apex[0] + self.velocity[0] * dt,
+            self.apex[1] + self.velocity[1] * dt,
+            self.apex[2],
+        ]
+    }
+}
+
+/// The points a cone is fitted to, with their times after the reference time when the scanner
+/// moves.
+struct Obs<'a> {
+    pts: &'a [[f64; 3]],
+    dt: Option<&'a [f64]>,
+}
+
+impl Obs<'_> {
+    fn dt(&self, i: usize) -> f64 {
+        self.dt.map_or(0.0, |d| d[i])
+    }
 }
 
 /// The 1st and 99th percentiles of the heights.
@@ -228,26 +334,27 @@ pub(crate) fn fit_circle(pts: &[P2]) -> Option<(P2, f64)> {
     (r2 > 0.0 && r2.is_finite()).then(|| ([m[0] + a, m[1] + b], r2.sqrt()))
 }
 
-/// For each sector around `apex`, the point below the apex with the lowest elevation.
-fn lowest_per_sector(pts: &[[f64; 3]], apex: [f64; 3], params: &ConeParams) -> Vec<[f64; 3]> {
+/// For each sector around the scanner (where it was when each point was taken), the index of
+/// the point below it with the lowest elevation.
+fn lowest_per_sector(obs: &Obs, cone: &Cone, params: &ConeParams) -> Vec<usize> {
     let n = params.sectors;
-    let mut best: Vec<Option<(f64, [f64; 3])>> = vec![None; n];
+    let mut best: Vec<Option<(f64, usize)>> = vec![None; n];
     let reach2 = params.reach * params.reach;
-    for p in pts {
-        let (dx, dy, dz) = (p[0] - apex[0], p[1] - apex[1], p[2] - apex[2]);
+    for (i, p) in obs.pts.iter().enumerate() {
+        let c = cone.position(obs.dt(i));
+        let (dx, dy, dz) = (p[0] - c[0], p[1] - c[1], p[2] - c[2]);
         let d2 = dx * dx + dy * dy;
         if dz >= 0.0 || d2 < 1e-4 || d2 > reach2 {
             continue;
         }
-        let d = d2.sqrt();
         // tan of the elevation: the most negative is the lowest.
-        let e = dz / d;
+        let e = dz / d2.sqrt();
         let k = ((diamond_angle(dx, dy) / 4.0 * n as f64) as usize).min(n - 1);
         if best[k].is_none_or(|(b, _)| e < b) {
-            best[k] = Some((e, *p));
+            best[k] = Some((e, i));
         }
     }
-    best.into_iter().flatten().map(|(_, p)| p).collect()
+    best.into_iter().flatten().map(|(_, i)| i).collect()
 }
 
 /// A cheap stand-in for the angle of `(dx, dy)`: monotonic in it, from 0 to 4 for a full turn
@@ -265,79 +372,96 @@ fn diamond_angle(dx: f64, dy: f64) -> f64 {
     }
 }
 
-/// Fits the blind cone from `apex` and `slope`: damped Gauss-Newton on the sectors' lowest
-/// points, outliers weighted out, for the apex's x, y, the slope and, when `height` gives its
-/// bounds, the apex height. With only the floor in view, height and slope trade off (the blind
-/// spot's radius is height / slope) and a free height drifts; with walls close by, only the
-/// right height puts their lowest points on the cone.
+/// Fits the blind cone from `start`: damped Gauss-Newton on the sectors' lowest points,
+/// outliers weighted out, for the apex's x, y and the slope; the velocity too when the points
+/// carry times; and the apex height when `height` gives its bounds. With only the floor in
+/// view, height and slope trade off (the blind spot's radius is height / slope) and a free
+/// height drifts; with walls close by, only the right height puts their lowest points on the
+/// cone.
 fn fit_cone(
-    pts: &[[f64; 3]],
-    apex: [f64; 3],
-    slope: f64,
+    obs: &Obs,
+    start: Cone,
     height: Option<(f64, f64)>,
     params: &ConeParams,
 ) -> Option<Cone> {
-    let (mut c, mut t) = (apex, slope);
-    let residuals = |c: [f64; 3], t: f64, b: &[[f64; 3]]| -> Vec<(f64, f64, [f64; 2])> {
+    // Unknowns: x, y, slope, height, vx, vy.
+    let free = [
+        true,
+        true,
+        true,
+        height.is_some(),
+        obs.dt.is_some(),
+        obs.dt.is_some(),
+    ];
+    let mut cone = start;
+    let residuals = |cone: &Cone, b: &[usize]| -> Vec<(f64, Vector6<f64>)> {
+        let t = cone.slope;
         b.iter()
-            .map(|p| {
+            .map(|&i| {
+                let (p, dt) = (obs.pts[i], obs.dt(i));
+                let c = cone.position(dt);
                 let (dx, dy) = (c[0] - p[0], c[1] - p[1]);
                 let d = (dx * dx + dy * dy).sqrt().max(1e-9);
-                (p[2] - c[2] + t * d, d, [dx / d, dy / d])
+                let u = [dx / d, dy / d];
+                let j = Vector6::new(t * u[0], t * u[1], d, -1.0, t * u[0] * dt, t * u[1] * dt);
+                (p[2] - c[2] + t * d, j)
             })
             .collect()
     };
     for _ in 0..40 {
-        let b = lowest_per_sector(pts, c, params);
+        let b = lowest_per_sector(obs, &cone, params);
         if b.len() < 8 {
             return None;
         }
-        let r = residuals(c, t, &b);
+        let r = residuals(&cone, &b);
         let mut abs: Vec<f64> = r.iter().map(|x| x.0.abs()).collect();
         let mid = abs.len() / 2;
         let mad = *abs.select_nth_unstable_by(mid, f64::total_cmp).1;
         let cut = (3.0 * 1.4826 * mad).max(params.tolerance / 2.0) + 0.01;
-        // Unknowns: x, y, slope, height.
-        let (mut a, mut g) = (Matrix4::<f64>::zeros(), Vector4::<f64>::zeros());
-        for &(res, d, u) in &r {
-            if res.abs() > cut {
-                continue;
+        let (mut a, mut g) = (Matrix6::<f64>::zeros(), Vector6::<f64>::zeros());
+        for (res, j) in &r {
+            if res.abs() <= cut {
+                a += j * j.transpose();
+                g += j * *res;
             }
-            let j = Vector4::new(t * u[0], t * u[1], d, -1.0);
-            a += j * j.transpose();
-            g += j * res;
         }
-        for k in 0..4 {
-            a[(k, k)] *= 1.0 + 1e-2;
-            a[(k, k)] += 1e-9;
-        }
-        let step = match height {
-            Some(_) => a.lu().solve(&(-g))?,
-            None => {
-                let s = a
-                    .fixed_view::<3, 3>(0, 0)
-                    .into_owned()
-                    .lu()
-                    .solve(&(-g.fixed_rows::<3>(0)))?;
-                Vector4::new(s[0], s[1], s[2], 0.0)
+        for k in 0..6 {
+            if free[k] {
+                a[(k, k)] = a[(k, k)] * (1.0 + 1e-2) + 1e-9;
+            } else {
+                // A fixed unknown: its row and column say "no step".
+                a.row_mut(k).fill(0.0);
+                a.column_mut(k).fill(0.0);
+                a[(k, k)] = 1.0;
+                g[k] = 0.0;
             }
-        };
+        }
+        let step = a.lu().solve(&(-g))?;
         let (sx, sy) = (step[0].clamp(-0.3, 0.3), step[1].clamp(-0.3, 0.3));
         let z = match height {
-            Some((lo, hi)) => (c[2] + step[3]).clamp(lo, hi),
-            None => c[2],
+            Some((lo, hi)) => (cone.apex[2] + step[3]).clamp(lo, hi),
+            None => cone.apex[2],
         };
-        c = [c[0] + sx, c[1] + sy, z];
-        t = (t + step[2]).clamp(SLOPE.0, SLOPE.1);
-        if !(c[0].is_finite() && c[1].is_finite() && c[2].is_finite()) {
+        cone.apex = [cone.apex[0] + sx, cone.apex[1] + sy, z];
+        cone.slope = (cone.slope + step[2]).clamp(SLOPE.0, SLOPE.1);
+        cone.velocity = [
+            cone.velocity[0] + step[4].clamp(-0.5, 0.5),
+            cone.velocity[1] + step[5].clamp(-0.5, 0.5),
+        ];
+        if !(cone
+            .apex
+            .iter()
+            .chain(&cone.velocity)
+            .all(|c| c.is_finite()))
+        {
             return None;
         }
-        if sx.abs().max(sy.abs()) < 1e-4 {
+        if sx.abs().max(sy.abs()) < 1e-4 && step[4].abs().max(step[5].abs()) < 1e-3 {
             break;
         }
     }
-    let b = lowest_per_sector(pts, c, params);
-    let on: Vec<f64> = residuals(c, t, &b)
+    let b = lowest_per_sector(obs, &cone, params);
+    let on: Vec<f64> = residuals(&cone, &b)
         .into_iter()
         .map(|x| x.0)
         .filter(|r| r.abs() <= params.tolerance)
@@ -346,12 +470,9 @@ fn fit_cone(
         return None;
     }
     let rms = (on.iter().map(|r| r * r).sum::<f64>() / on.len() as f64).sqrt();
-    Some(Cone {
-        apex: c,
-        slope: t,
-        support: on.len(),
-        residual: rms / t,
-    })
+    cone.support = on.len();
+    cone.residual = rms / cone.slope;
+    Some(cone)
 }
 
 #[cfg(test)]

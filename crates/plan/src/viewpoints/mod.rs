@@ -40,7 +40,7 @@ impl Default for ViewpointsParams {
         ViewpointsParams {
             estimate: true,
             max_points_per_scan: 20_000,
-            window_points: 2_000,
+            window_points: 8_000,
         }
     }
 }
