@@ -83,6 +83,7 @@ impl ReadArgs {
             scan_column: self.scan_column,
             format: self.format,
             keep_time,
+            ..ReadOptions::default()
         }
     }
 }

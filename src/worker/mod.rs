@@ -242,7 +242,7 @@ impl Workers {
             }
             // Only the time limit is left to have stopped the run; a run that failed on its own
             // reports its own error, even if the deadline passed meanwhile.
-            (_, Err(f)) if f.code == PipelineFailure::cancelled().code => {
+            (_, Err(f)) if f.is_stop() => {
                 let error = JobError {
                     code: "time_limit".into(),
                     message: format!(

@@ -4,9 +4,10 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use asbuilt_plan::io::ReadOptions;
 use asbuilt_plan::io::{self, dxf, geojson, poses, svg};
 use asbuilt_plan::progress::{Progress, Stage};
-use asbuilt_plan::{Params, PlanError};
+use asbuilt_plan::{Cancelled, Params};
 
 use crate::queue::JobId;
 
@@ -73,14 +74,26 @@ impl PipelineFailure {
         }
     }
 
-    /// The pipeline stopped because `Progress::cancelled` said so.
+    /// The pipeline stopped because `Progress::cancel` said so.
     pub fn cancelled() -> PipelineFailure {
-        PipelineFailure::new("cancelled", "cancelled")
+        PipelineFailure::stopped(Cancelled::ByCaller)
+    }
+
+    /// The pipeline stopped on its flag (`cancelled`) or its deadline (`time_limit`).
+    pub fn stopped(why: Cancelled) -> PipelineFailure {
+        PipelineFailure::new(why.code(), why.to_string())
+    }
+
+    /// True when the run was stopped from outside rather than failing on its own.
+    pub fn is_stop(&self) -> bool {
+        [Cancelled::ByCaller, Cancelled::TimeLimit]
+            .iter()
+            .any(|c| c.code() == self.code)
     }
 }
 
-/// Runs one job, synchronously, on a blocking thread. Must check `progress.cancelled()` often
-/// enough that cancellation lands within a second or two.
+/// Runs one job, synchronously, on a blocking thread. Must check `progress.cancel()` often
+/// enough that a stop lands within a second.
 pub trait Pipeline: Send + Sync + 'static {
     fn run(
         &self,
@@ -122,8 +135,13 @@ impl Pipeline for PlanPipeline {
             Ok(None) => {}
             Err(super::points::CountStop::Cancelled) => return Err(PipelineFailure::cancelled()),
         }
-        let mut cloud = io::read_cloud(&input.cloud).map_err(|e| {
-            PipelineFailure::new(e.code(), hide_path(e.to_string(), &input.cloud, "cloud"))
+        let options = ReadOptions {
+            cancel: progress.cancel(),
+            ..ReadOptions::default()
+        };
+        let mut cloud = io::read_cloud_with(&input.cloud, &options).map_err(|e| match e {
+            io::ReadError::Cancelled(c, _) => PipelineFailure::stopped(c),
+            e => PipelineFailure::new(e.code(), hide_path(e.to_string(), &input.cloud, "cloud")),
         })?;
         check_points(cloud.len() as u64, input.max_points)?;
         if let Some((kind, path)) = &input.sidecar {
@@ -137,14 +155,15 @@ impl Pipeline for PlanPipeline {
             })?;
         }
         let read_ms = read_start.elapsed().as_millis() as u64;
-        if progress.cancelled() {
-            return Err(PipelineFailure::cancelled());
+        if let Err(c) = progress.cancel().check() {
+            return Err(PipelineFailure::stopped(c));
         }
-        let mut plan =
-            asbuilt_plan::plan(&cloud, &input.params, progress).map_err(|e| match e {
-                PlanError::Cancelled => PipelineFailure::cancelled(),
-                e => PipelineFailure::new(e.code(), e.to_string()),
-            })?;
+        let mut plan = asbuilt_plan::plan(&cloud, &input.params, progress).map_err(|e| match e
+            .cancelled()
+        {
+            Some(c) => PipelineFailure::stopped(c),
+            None => PipelineFailure::new(e.code(), e.to_string()),
+        })?;
         drop(cloud);
         plan.timings_ms.insert(0, ("read".into(), read_ms));
         if let Some((_, total)) = plan.timings_ms.iter_mut().find(|(n, _)| n == "total") {

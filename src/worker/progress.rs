@@ -6,6 +6,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use asbuilt_plan::progress::{Progress, Stage};
+use asbuilt_plan::Cancel;
 
 /// Why a run should stop.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -19,10 +20,21 @@ pub enum Stop {
 }
 
 /// State shared by the pipeline thread and the worker.
-#[derive(Default)]
 pub struct Shared {
     latest: Mutex<(Option<Stage>, f64)>,
     stop: AtomicU8,
+    /// Raised with the first stop reason; the pipeline checks it inside its loops.
+    cancel: Cancel,
+}
+
+impl Default for Shared {
+    fn default() -> Self {
+        Shared {
+            latest: Mutex::default(),
+            stop: AtomicU8::default(),
+            cancel: Cancel::new(),
+        }
+    }
 }
 
 impl Shared {
@@ -36,6 +48,7 @@ impl Shared {
         let _ = self
             .stop
             .compare_exchange(0, why as u8, Ordering::SeqCst, Ordering::SeqCst);
+        self.cancel.cancel();
     }
 
     /// Why the run was asked to stop, if it was.
@@ -60,17 +73,17 @@ impl Progress for JobProgress {
         *self.shared.latest.lock().expect("progress lock") = (Some(stage), fraction);
     }
 
-    fn cancelled(&self) -> bool {
-        if Instant::now() >= self.deadline {
-            self.shared.stop(Stop::TimeLimit);
-        }
-        self.shared.stopped().is_some()
+    /// The shared flag, with the job's deadline: the pipeline stops at the deadline on its own
+    /// (the heartbeat also raises the flag then, within a beat).
+    fn cancel(&self) -> Cancel {
+        self.shared.cancel.clone().with_deadline(self.deadline)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use asbuilt_plan::Cancelled;
     use std::time::Duration;
 
     #[test]
@@ -83,15 +96,18 @@ mod tests {
         p.report(Stage::Labeling, 0.5);
         assert_eq!(shared.latest(), (Some(Stage::Labeling), 0.5));
         assert!(!p.cancelled());
+        // The token the pipeline took before the stop sees it.
+        let taken = p.cancel();
         shared.stop(Stop::Shutdown);
         shared.stop(Stop::Lost);
         assert!(p.cancelled());
+        assert_eq!(taken.check(), Err(Cancelled::ByCaller));
         assert_eq!(shared.stopped(), Some(Stop::Shutdown));
         let late = JobProgress {
             shared: Arc::new(Shared::default()),
             deadline: Instant::now(),
         };
+        assert_eq!(late.cancel().check(), Err(Cancelled::TimeLimit));
         assert!(late.cancelled());
-        assert_eq!(late.shared.stopped(), Some(Stop::TimeLimit));
     }
 }

@@ -7,6 +7,7 @@
 //! neighbours; samples every 5 cm along every wall face, normals into the room. With poses,
 //! each room has a scanner at its centre that sees its own walls (jambs from both sides).
 
+use asbuilt_plan::Cancel;
 use std::time::Instant;
 
 use asbuilt_plan::geom::P2;
@@ -155,7 +156,7 @@ fn main() {
     let floor = Floor { cols, rows };
     let ws = samples(&floor, poses, noise);
     let start = Instant::now();
-    let (l, r) = match label_with_report(&ws, &params) {
+    let (l, r) = match label_with_report(&ws, &params, &Cancel::never()) {
         Ok(x) => x,
         Err(e) => {
             eprintln!("labeling failed: {e}");

@@ -18,6 +18,7 @@ use asbuilt_plan::samples::sample_walls;
 use asbuilt_plan::simulate::{simulate, BuildingKind, ScanOptions};
 use asbuilt_plan::smoothing::smooth_samples;
 use asbuilt_plan::stories::split_stories;
+use asbuilt_plan::Cancel;
 use asbuilt_plan::Params;
 
 fn main() {
@@ -62,9 +63,15 @@ fn main() {
     let z: Vec<f32> = cloud.xyz.iter().map(|p| p[2]).collect();
     let stories = split_stories(&z, &params.stories).unwrap();
     let story = &stories[level];
-    let mut samples = sample_walls(&cloud, story, &params.samples).unwrap();
-    smooth_samples(&mut samples, params.samples.cell_size, &params.smoothing).unwrap();
-    let mut labeled = label(&samples, &params.labeling).unwrap();
+    let mut samples = sample_walls(&cloud, story, &params.samples, &Cancel::never()).unwrap();
+    smooth_samples(
+        &mut samples,
+        params.samples.cell_size,
+        &params.smoothing,
+        &Cancel::never(),
+    )
+    .unwrap();
+    let mut labeled = label(&samples, &params.labeling, &Cancel::never()).unwrap();
     let truth: Vec<Vec<P2>> = truth_stories.map_or(Vec::new(), |t| {
         t[level]
             .polygons
@@ -86,7 +93,7 @@ fn main() {
     )
     .unwrap();
     let boundary = trace_boundary(&labeled).unwrap();
-    let fitted = fit_walls(&labeled, &boundary, &params.fitting).unwrap();
+    let fitted = fit_walls(&labeled, &boundary, &params.fitting, &Cancel::never()).unwrap();
     let rings: Vec<Vec<P2>> = fitted
         .polygons
         .iter()

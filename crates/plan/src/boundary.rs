@@ -233,6 +233,28 @@ fn group(
 }
 
 impl Boundary {
+    /// The traced polygons at their mesh vertices' positions.
+    pub fn to_polygons(&self, mesh: &crate::labeling::Mesh) -> Vec<crate::plan::Polygon> {
+        let ring = |r: &Ring| -> Vec<P2> {
+            r.vertices
+                .iter()
+                .map(|&v| {
+                    mesh.vertices
+                        .get(v as usize)
+                        .copied()
+                        .unwrap_or([f64::NAN; 2])
+                })
+                .collect()
+        };
+        self.polygons
+            .iter()
+            .map(|p| crate::plan::Polygon {
+                exterior: ring(&p.exterior),
+                holes: p.holes.iter().map(ring).collect(),
+            })
+            .collect()
+    }
+
     /// Every ring, exteriors and holes, in polygon order.
     pub fn rings(&self) -> impl Iterator<Item = &Ring> {
         self.polygons
@@ -515,6 +537,7 @@ mod tests {
 
 #[cfg(test)]
 mod random_tests {
+    use crate::cancel::Cancel;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
@@ -585,25 +608,15 @@ mod random_tests {
                 inlier_angle: 1.5,
                 ..Default::default()
             };
-            let f = fit_walls(&l, &b, &params).unwrap_or_else(|e| panic!("seed {seed}: {e}"));
-            assert_eq!(f.polygons.len(), b.polygons.len());
-            let mut rings = Vec::new();
-            let mut ext = Vec::new();
-            for p in &f.polygons {
-                let e = rings.len();
-                rings.push(p.exterior.clone());
-                ext.push(None);
-                for h in &p.holes {
-                    rings.push(h.clone());
-                    ext.push(Some(e));
-                }
-            }
-            assert!(crate::fitting::simple::problems(&rings, &ext).is_empty());
+            let f = fit_walls(&l, &b, &params, &Cancel::never())
+                .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
+            let problems = crate::validity::problems(&f.polygons, &crate::validity::Grid::local());
+            assert!(problems.is_empty(), "seed {seed}: {problems:?}");
             walls += f.walls.len();
             repairs += f.notes.len();
         }
         eprintln!("random labelings: {walls} walls fitted, {repairs} plans repaired");
-        // The test must exercise both the rebuild and the repair.
+        // The test must exercise both the rebuild and the resolution of crossings.
         assert!(walls > 0 && repairs > 0);
     }
 }

@@ -9,19 +9,39 @@ use serde::{Deserialize, Serialize};
 
 use crate::geom;
 use crate::labeling::{LabeledMesh, Mesh, NONE};
+use crate::params::{within, ParamRange};
 
 /// Parameters of [`clean_labels`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct CleanupParams {
     /// Regions with fewer triangles are relabelled (§3.4: "a value of 30 triangles is typically used").
+    /// Range 0..=100000.
     pub min_region_triangles: usize,
     /// A small outside region only becomes inside when its area is also below this, m².
     /// Beyond the paper: a column is a real hole bounded by few triangles, so the triangle count
-    /// alone would fill it in. 0.05 m² keeps any column wider than about 22 cm.
+    /// alone would fill it in. 0.05 m² keeps any column wider than about 22 cm. Range 0..=100.
     pub max_hole_area: f64,
     /// Remove protrusions (§3.4).
     pub remove_protrusions: bool,
+}
+
+/// The accepted values of [`CleanupParams`] (see [`crate::params::ParamRange`]).
+pub const RANGES: &[ParamRange] = &[
+    ParamRange::new("min_region_triangles", 0.0, 100_000.0, ""),
+    ParamRange::new("max_hole_area", 0.0, 100.0, "m²"),
+];
+
+impl CleanupParams {
+    /// Checks every value; the error names the parameter and gives its range.
+    pub fn check(&self) -> Result<(), (&'static str, String)> {
+        within(
+            RANGES,
+            "min_region_triangles",
+            self.min_region_triangles as f64,
+        )?;
+        within(RANGES, "max_hole_area", self.max_hole_area)
+    }
 }
 
 impl Default for CleanupParams {

@@ -8,13 +8,16 @@
 //! # Layout
 //! - [`pipeline::plan`] runs the stages in order:
 //!   [`stories`] → [`samples`] → [`smoothing`] → [`labeling`] → [`cleanup`] → [`boundary`] → [`fitting`].
-//! - [`params::Params`] holds every stage's parameters, with the paper's defaults.
+//! - [`params::Params`] holds every stage's parameters, with the paper's defaults and each
+//!   number's accepted range.
+//! - [`cancel::Cancel`] stops a run from outside (a flag, a deadline): every long loop checks it.
 //! - [`cloud::PointCloud`] is the input, [`plan::FloorPlan`] the output.
 //! - [`viewpoints`] estimates scanner positions the input does not give.
 //! - [`io`] reads clouds and pose sidecars and writes GeoJSON, SVG and DXF.
 //! - [`simulate`] builds and scans synthetic buildings with exact ground truth; [`evaluate`] scores plans.
 
 pub mod boundary;
+pub mod cancel;
 pub mod cleanup;
 pub mod cloud;
 pub mod evaluate;
@@ -31,8 +34,10 @@ pub mod simulate;
 pub mod smoothing;
 pub mod stories;
 pub mod streaming;
+pub mod validity;
 pub mod viewpoints;
 
+pub use cancel::{Cancel, Cancelled};
 pub use cloud::PointCloud;
 pub use params::Params;
 pub use pipeline::{plan, PlanError};

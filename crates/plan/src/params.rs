@@ -26,6 +26,79 @@ pub struct Params {
     pub emit_samples: bool,
 }
 
+/// The values a numeric parameter accepts, both ends included. Each stage lists its own
+/// (`RANGES` in the stage's module) and checks them first; the service refuses a value outside
+/// before the job is queued, and the OpenAPI document states the same bounds. The ranges are
+/// wide enough for any real scan and narrow enough that no value makes a stage run for hours
+/// or allocate without bound.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ParamRange {
+    /// The field's name within its stage's parameters.
+    pub name: &'static str,
+    pub min: f64,
+    pub max: f64,
+    /// For messages: `m`, `m²`, `rad`, or empty for counts and fractions.
+    pub unit: &'static str,
+}
+
+impl ParamRange {
+    pub const fn new(name: &'static str, min: f64, max: f64, unit: &'static str) -> ParamRange {
+        ParamRange {
+            name,
+            min,
+            max,
+            unit,
+        }
+    }
+
+    /// `Err` with a message giving the range when `value` lies outside it (NaN always does).
+    pub fn check(&self, value: f64) -> Result<(), String> {
+        if value >= self.min && value <= self.max {
+            return Ok(());
+        }
+        let unit = if self.unit.is_empty() {
+            String::new()
+        } else {
+            format!(" {}", self.unit)
+        };
+        Err(format!(
+            "{value} is outside the accepted range {}..={}{unit}",
+            self.min, self.max
+        ))
+    }
+}
+
+/// Checks `value` against the range called `name` in a stage's `ranges`; the error names the
+/// field and gives the range. Every name a stage checks is in its table (a test sets each one
+/// out of range).
+pub(crate) fn within(
+    ranges: &[ParamRange],
+    name: &'static str,
+    value: f64,
+) -> Result<(), (&'static str, String)> {
+    match ranges.iter().find(|r| r.name == name) {
+        Some(r) => r.check(value).map_err(|why| (name, why)),
+        None => Err((name, "has no documented range (a bug)".into())),
+    }
+}
+
+/// Every stage's ranges, with the section each belongs to: for documents and tests.
+pub fn ranges() -> Vec<(&'static str, ParamRange)> {
+    let sections: [(&'static str, &[ParamRange]); 7] = [
+        ("stories", crate::stories::RANGES),
+        ("samples", crate::samples::RANGES),
+        ("smoothing", crate::smoothing::RANGES),
+        ("labeling", crate::labeling::RANGES),
+        ("cleanup", crate::cleanup::RANGES),
+        ("fitting", crate::fitting::RANGES),
+        ("viewpoints", crate::viewpoints::RANGES),
+    ];
+    sections
+        .into_iter()
+        .flat_map(|(s, list)| list.iter().map(move |r| (s, *r)))
+        .collect()
+}
+
 /// A parameter that could not be set. The message names the parameter.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum ParamsError {
@@ -102,6 +175,7 @@ impl Params {
             Err(SmoothingError::BadParam { name, why }) => {
                 return Err(named("smoothing", name, why))
             }
+            Err(e) => return Err(named("smoothing", "?", e.to_string())),
             Ok(()) => {}
         }
         match self.labeling.check() {
@@ -109,18 +183,11 @@ impl Params {
             Err(e) => return Err(named("labeling", "?", e.to_string())),
             Ok(()) => {}
         }
-        let c = &self.cleanup;
-        if c.max_hole_area.is_nan() || c.max_hole_area < 0.0 {
-            return Err(named(
-                "cleanup",
-                "max_hole_area",
-                format!("{} is not an area of 0 m² or more", c.max_hole_area),
-            ));
+        if let Err((name, why)) = self.cleanup.check() {
+            return Err(named("cleanup", name, why));
         }
-        match self.fitting.check() {
-            Err(FittingError::BadParam { name, why }) => return Err(named("fitting", name, why)),
-            Err(e) => return Err(named("fitting", "?", e.to_string())),
-            Ok(()) => {}
+        if let Err(FittingError::BadParam { name, why }) = self.fitting.check() {
+            return Err(named("fitting", name, why));
         }
         if let Err(crate::viewpoints::ViewpointsError::BadParam { name, why }) =
             self.viewpoints.check()
@@ -185,6 +252,99 @@ mod tests {
         assert!(
             matches!(p.check(), Err(ParamsError::Invalid { name, .. }) if name == "smoothing.max_angle")
         );
+    }
+
+    #[test]
+    fn every_range_is_enforced_at_both_ends_and_named() {
+        let all = ranges();
+        assert!(all.len() >= 25, "{} ranges", all.len());
+        for (section, r) in all {
+            let name = format!("{section}.{}", r.name);
+            let mut outside = vec![r.max * 2.0 + 1.0];
+            if r.min > 0.0 {
+                outside.push(r.min / 2.0);
+            }
+            for v in outside {
+                let mut p = Params::default();
+                if section == "smoothing" {
+                    // Smoothing's values are read, and checked, only when it is on.
+                    p.set("smoothing.registration_error=0.01").unwrap();
+                }
+                // Counts take whole numbers; `set` keeps the JSON type it is given.
+                let text = if v.fract() == 0.0 {
+                    format!("{name}={}", v as u64)
+                } else {
+                    format!("{name}={v}")
+                };
+                match p.set(&text).and_then(|_| p.check()) {
+                    Err(ParamsError::Invalid { name: n, why }) => {
+                        assert_eq!(n, name, "{text}: {why}");
+                    }
+                    other => panic!("{text}: {other:?}"),
+                }
+            }
+            // Both ends are accepted.
+            for v in [r.min, r.max] {
+                let mut p = Params::default();
+                if section == "smoothing" {
+                    p.set("smoothing.registration_error=0.01").unwrap();
+                }
+                let text = if v.fract() == 0.0 {
+                    format!("{name}={}", v as u64)
+                } else {
+                    format!("{name}={v}")
+                };
+                // The one cross-field rule: no more filled bins than bins.
+                p.set("samples.height_bins=32").unwrap();
+                p.set(&text).unwrap();
+                if name == "samples.height_bins" {
+                    p.set("samples.min_filled_bins=0").unwrap();
+                }
+                assert_eq!(p.check(), Ok(()), "{text}");
+            }
+        }
+    }
+
+    /// A numeric parameter added without a range fails here: add it to its stage's `RANGES`
+    /// and check it in the stage's `check`.
+    #[test]
+    fn every_numeric_parameter_has_a_range() {
+        let documented: Vec<String> = ranges()
+            .iter()
+            .map(|(s, r)| format!("{s}.{}", r.name))
+            .collect();
+        let tree = Params::default().to_json();
+        for (section, values) in tree.as_object().unwrap() {
+            for (name, v) in values.as_object().into_iter().flatten() {
+                let key = format!("{section}.{name}");
+                // Any seed is as good as another.
+                if v.is_number() && key != "fitting.seed" {
+                    assert!(documented.contains(&key), "{key} has no range");
+                }
+            }
+        }
+        // The optional numbers, null by default.
+        for key in [
+            "samples.min_points",
+            "smoothing.registration_error",
+            "smoothing.distance",
+            "labeling.ray_end_margin",
+        ] {
+            assert!(documented.contains(&key.to_string()), "{key} has no range");
+        }
+    }
+
+    #[test]
+    fn the_message_gives_the_range() {
+        let mut p = Params::default();
+        p.set("fitting.iterations=1000000000000").unwrap();
+        let e = p.check().unwrap_err().to_string();
+        assert!(e.contains("fitting.iterations"), "{e}");
+        assert!(e.contains("1..=100000"), "{e}");
+        let mut p = Params::default();
+        p.set("samples.cell_size=1000000000").unwrap();
+        let e = p.check().unwrap_err().to_string();
+        assert!(e.contains("0.01..=0.5 m"), "{e}");
     }
 
     #[test]

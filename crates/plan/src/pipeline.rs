@@ -3,6 +3,7 @@
 use std::time::Instant;
 
 use crate::boundary::{trace_boundary, BoundaryError};
+use crate::cancel::{Cancel, Cancelled};
 use crate::cleanup::clean_labels;
 use crate::cloud::PointCloud;
 use crate::fitting::{fit_walls, FittingError};
@@ -13,6 +14,7 @@ use crate::progress::{Progress, Stage};
 use crate::samples::{check_params, sample_walls_in, SamplesError, StoryBounds, WallSamples};
 use crate::smoothing::{smooth_samples, SmoothingError};
 use crate::stories::{split_cloud_stories, StoriesError, Story};
+use crate::validity::{make_valid, Grid};
 use crate::viewpoints::{self, ViewpointsReport};
 
 /// Why a plan could not be made. Each variant names the stage.
@@ -36,8 +38,9 @@ pub enum PlanError {
     Fitting(#[from] FittingError),
     #[error("no story produced a plan: {0}")]
     NoPlan(String),
-    #[error("cancelled")]
-    Cancelled,
+    /// The caller's [`Cancel`] stopped the run (whichever stage it was in).
+    #[error("{0}")]
+    Cancelled(#[from] Cancelled),
 }
 
 impl PlanError {
@@ -53,13 +56,36 @@ impl PlanError {
             PlanError::Boundary(_) => "boundary_failed",
             PlanError::Fitting(_) => "fitting_failed",
             PlanError::NoPlan(_) => "no_plan",
-            PlanError::Cancelled => "cancelled",
+            PlanError::Cancelled(c) => c.code(),
+        }
+    }
+
+    /// Why the run was stopped from outside, if it was: a stage's own `Cancelled` variant is
+    /// the same stop as [`PlanError::Cancelled`].
+    pub fn cancelled(&self) -> Option<Cancelled> {
+        match self {
+            PlanError::Cancelled(c)
+            | PlanError::Samples(SamplesError::Cancelled(c))
+            | PlanError::Smoothing(SmoothingError::Cancelled(c))
+            | PlanError::Labeling(LabelingError::Cancelled(c))
+            | PlanError::Fitting(FittingError::Cancelled(c)) => Some(*c),
+            _ => None,
+        }
+    }
+
+    /// Lifts a stage's `Cancelled` to [`PlanError::Cancelled`], so callers match one variant.
+    fn lift(self) -> PlanError {
+        match self.cancelled() {
+            Some(c) => PlanError::Cancelled(c),
+            None => self,
         }
     }
 }
 
 /// The `timings_ms` key of the Delaunay triangulation, the first part of labeling (§3.3).
 pub const TRIANGULATE: &str = "triangulate";
+/// The `timings_ms` key of the last step: every polygon made OGC-valid on the output grid.
+pub const VALIDITY: &str = "validity";
 /// The `timings_ms` key of estimating scanner positions the input does not give.
 pub const VIEWPOINTS: &str = "viewpoints";
 
@@ -99,6 +125,7 @@ pub fn plan(
     progress: &mut dyn Progress,
 ) -> Result<FloorPlan, PlanError> {
     let start = Instant::now();
+    let cancel = progress.cancel();
     if cloud.is_empty() {
         return Err(PlanError::EmptyCloud);
     }
@@ -108,19 +135,21 @@ pub fn plan(
     let clock = Instant::now();
     let estimate = viewpoints::estimate(cloud, &params.viewpoints);
     timings.add(VIEWPOINTS, clock.elapsed().as_secs_f64() * 1e3);
-    if progress.cancelled() {
-        return Err(PlanError::Cancelled);
-    }
+    cancel.check()?;
     // Estimated viewpoints are used exactly as given ones.
     let seen_from = estimate.viewpoints.as_ref().unwrap_or(&cloud.viewpoints);
+    // Splitting the stories and measuring their bounds are a few linear passes over the
+    // points: checked between them, not inside.
     let stories = timings.time(Stage::Stories, || {
         split_cloud_stories(&cloud.xyz, &params.stories)
     })?;
+    cancel.check()?;
     // One pass finds where every story's grid lies.
     let (bounds, blocks) = timings.time(Stage::Samples, || {
         StoryBounds::measure_all(&cloud.xyz, &stories)
     });
-    let mut sample = |story: &Story| {
+    cancel.check()?;
+    let mut sample = |story: &Story, cancel: &Cancel| {
         let p = &params.samples;
         check_params(p, story)?;
         let frame = bounds[story.level].frame(story, p.cell_size)?;
@@ -131,6 +160,7 @@ pub fn plan(
             p,
             &frame,
             Some(&blocks.spans(story)),
+            cancel,
         )
     };
     let mut summary = CloudSummary::of(cloud, cloud.len() as u64);
@@ -166,7 +196,8 @@ impl<'a> CloudSummary<'a> {
 }
 
 /// Every stage after the stories, story by story; `sample` gives a story's wall samples.
-/// Stories that fail are noted and skipped; the plan fails only when none succeeds.
+/// Stories that fail are noted and skipped; the plan fails only when none succeeds. A stop
+/// from `progress`'s [`Cancel`] ends the whole run as [`PlanError::Cancelled`].
 pub(crate) fn plan_stories(
     input: &CloudSummary<'_>,
     stories: &[Story],
@@ -174,9 +205,10 @@ pub(crate) fn plan_stories(
     progress: &mut dyn Progress,
     mut timings: Timings,
     start: Instant,
-    sample: &mut dyn FnMut(&Story) -> Result<WallSamples, SamplesError>,
+    sample: &mut dyn FnMut(&Story, &Cancel) -> Result<WallSamples, SamplesError>,
 ) -> Result<FloorPlan, PlanError> {
     let cloud = input.cloud;
+    let cancel = progress.cancel();
     let mut notes = Vec::new();
     let mut plans = Vec::new();
     let mut parameters = params.to_json();
@@ -186,7 +218,19 @@ pub(crate) fn plan_stories(
     let mut evidence = (0.0, 0.0);
     for (i, story) in stories.iter().enumerate() {
         let at = |k: f64| (i as f64 + k) / stories.len() as f64;
-        match plan_story(story, params, progress, &mut timings, at, &mut *sample) {
+        let grid = Grid::world(cloud.origin);
+        match plan_story(
+            story,
+            params,
+            &grid,
+            progress,
+            &cancel,
+            &mut timings,
+            at,
+            &mut *sample,
+        )
+        .map_err(PlanError::lift)
+        {
             Ok(StoryOutcome {
                 plan: story_plan,
                 min_points_used: used,
@@ -203,7 +247,7 @@ pub(crate) fn plan_stories(
                 );
                 plans.push(story_plan);
             }
-            Err(PlanError::Cancelled) => return Err(PlanError::Cancelled),
+            Err(PlanError::Cancelled(c)) => return Err(PlanError::Cancelled(c)),
             Err(e) => {
                 notes.push(format!(
                     "story {} (floor z {:.2}) skipped: {e}",
@@ -247,30 +291,33 @@ pub(crate) fn plan_stories(
 fn plan_story(
     story: &Story,
     params: &Params,
+    grid: &Grid,
     progress: &mut dyn Progress,
+    cancel: &Cancel,
     timings: &mut Timings,
     at: impl Fn(f64) -> f64,
-    sample: &mut dyn FnMut(&Story) -> Result<WallSamples, SamplesError>,
+    sample: &mut dyn FnMut(&Story, &Cancel) -> Result<WallSamples, SamplesError>,
 ) -> Result<StoryOutcome, PlanError> {
     let mut step = |stage: Stage, k: f64| {
         progress.report(stage, at(k));
-        if progress.cancelled() {
-            Err(PlanError::Cancelled)
-        } else {
-            Ok(())
-        }
+        cancel.check()
     };
     step(Stage::Samples, 0.0)?;
-    let mut samples = timings.time(Stage::Samples, || sample(story))?;
+    let mut samples = timings.time(Stage::Samples, || sample(story, cancel))?;
     step(Stage::Smoothing, 0.4)?;
     timings.time(Stage::Smoothing, || {
-        smooth_samples(&mut samples, params.samples.cell_size, &params.smoothing)
+        smooth_samples(
+            &mut samples,
+            params.samples.cell_size,
+            &params.smoothing,
+            cancel,
+        )
     })?;
     step(Stage::Labeling, 0.5)?;
     // The triangulation is reported on its own, ahead of the labeling proper.
     timings.add(TRIANGULATE, 0.0);
     let start = Instant::now();
-    let (mut labeled, report) = label_with_report(&samples, &params.labeling)?;
+    let (mut labeled, report) = label_with_report(&samples, &params.labeling, cancel)?;
     let mesh_ms = report.timings.mesh_ms;
     timings.add(TRIANGULATE, mesh_ms);
     timings.add(
@@ -285,20 +332,26 @@ fn plan_story(
     let boundary = timings.time(Stage::Cleanup, || trace_boundary(&labeled))?;
     step(Stage::Fitting, 0.9)?;
     let fitted = timings.time(Stage::Fitting, || {
-        fit_walls(&labeled, &boundary, &params.fitting)
+        fit_walls(&labeled, &boundary, &params.fitting, cancel)
     })?;
+    let start = Instant::now();
+    let traced = boundary.to_polygons(&labeled.mesh);
+    let valid = make_valid(&fitted.polygons, &traced, grid);
+    timings.add(VALIDITY, start.elapsed().as_secs_f64() * 1e3);
+    let mut notes = fitted.notes;
+    notes.extend(valid.notes);
     let plan = StoryPlan {
         level: story.level,
         floor_z: story.floor_z,
         ceiling_z: story.ceiling_z,
-        polygons: fitted.polygons,
+        polygons: valid.polygons,
         walls: fitted.walls,
         samples: samples.samples.iter().map(|s| s.pos).collect(),
     };
     Ok(StoryOutcome {
         plan,
         min_points_used: samples.min_points_used,
-        notes: fitted.notes,
+        notes,
         forced,
     })
 }

@@ -1,6 +1,8 @@
 //! How the pipeline reports progress and learns it should stop. Callers (the CLI's progress bar,
 //! the service's worker) implement [`Progress`]; the pipeline knows nothing of them.
 
+use crate::cancel::Cancel;
+
 /// The stages, in pipeline order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Stage {
@@ -33,9 +35,16 @@ impl Stage {
 /// Receives progress. `fraction` is the whole run's progress in [0, 1].
 pub trait Progress: Send {
     fn report(&mut self, stage: Stage, fraction: f64);
-    /// Returns true when the caller wants the run to stop; checked at stage boundaries.
+
+    /// The token the run checks inside every long loop; the default never stops. Asked once
+    /// per run, so it must be a clone of what the caller raises.
+    fn cancel(&self) -> Cancel {
+        Cancel::never()
+    }
+
+    /// True once the caller wants the run to stop.
     fn cancelled(&self) -> bool {
-        false
+        self.cancel().is_stopped()
     }
 }
 

@@ -10,7 +10,9 @@ use std::collections::HashMap;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::cancel::{Cancel, Cancelled};
 use crate::geom::{cross, dot, sub, P2};
+use crate::params::{within, ParamRange};
 use crate::samples::{WallSample, WallSamples};
 
 /// Parameters of [`smooth_samples`].
@@ -18,16 +20,25 @@ use crate::samples::{WallSample, WallSamples};
 #[serde(default, deny_unknown_fields)]
 pub struct SmoothingParams {
     /// Expected registration error, metres. `None` turns smoothing off (§3.2: "not necessary if
-    /// registration error is smaller than d_s").
+    /// registration error is smaller than d_s"). Range 0.001..=0.5.
     pub registration_error: Option<f64>,
     /// Smoothing distance along ±n, metres; `None` uses 2 × the registration error (§3.2: at
-    /// least the registration error, less than the spacing of parallel walls).
+    /// least the registration error, less than the spacing of parallel walls). Range 0.001..=1.
     pub distance: Option<f64>,
-    /// Extent across n, in cells of d_s (§3.2: 3 d_s).
+    /// Extent across n, in cells of d_s (§3.2: 3 d_s). Range 0.1..=20.
     pub across_cells: f64,
-    /// Maximum normal angle, radians (§3.2: π/8).
+    /// Maximum normal angle, radians (§3.2: π/8). Range 0..=π.
     pub max_angle: f64,
 }
+
+/// The accepted values of [`SmoothingParams`] (see [`crate::params::ParamRange`]). The
+/// smoothing set's search radius follows from them, so they also bound its cost per sample.
+pub const RANGES: &[ParamRange] = &[
+    ParamRange::new("registration_error", 0.001, 0.5, "m"),
+    ParamRange::new("distance", 0.001, 1.0, "m"),
+    ParamRange::new("across_cells", 0.1, 20.0, ""),
+    ParamRange::new("max_angle", 0.0, std::f64::consts::PI, "rad"),
+];
 
 impl Default for SmoothingParams {
     fn default() -> Self {
@@ -45,20 +56,24 @@ impl Default for SmoothingParams {
 pub enum SmoothingError {
     #[error("invalid smoothing parameter `{name}`: {why}")]
     BadParam { name: &'static str, why: String },
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
 }
 
-/// Moves each sample to the mean of its smoothing set. `cell_size` is d_s.
+/// Moves each sample to the mean of its smoothing set. `cell_size` is d_s. Stops with
+/// `Cancelled` once `cancel` says so, leaving the samples as they were.
 pub fn smooth_samples(
     samples: &mut WallSamples,
     cell_size: f64,
     params: &SmoothingParams,
+    cancel: &Cancel,
 ) -> Result<(), SmoothingError> {
+    params.check(cell_size)?;
     let Some(error) = params.registration_error else {
         return Ok(());
     };
     let along = params.distance.unwrap_or(2.0 * error);
     let across = params.across_cells * cell_size;
-    check(error, along, across, params.max_angle)?;
     let set = SmoothingSet {
         along,
         across,
@@ -68,8 +83,14 @@ pub fn smooth_samples(
     let means: Vec<P2> = samples
         .samples
         .par_iter()
-        .map(|s| set.mean(s, &samples.samples, &index))
+        .map(|s| {
+            if cancel.is_stopped() {
+                return s.pos;
+            }
+            set.mean(s, &samples.samples, &index)
+        })
         .collect();
+    cancel.check()?;
     for (s, m) in samples.samples.iter_mut().zip(means) {
         s.pos = m;
     }
@@ -78,40 +99,29 @@ pub fn smooth_samples(
 
 impl SmoothingParams {
     /// Checks every value for grid cells of `cell_size` metres; the error names the parameter.
+    /// Only a run with smoothing on reads them, so only then are they checked.
     pub fn check(&self, cell_size: f64) -> Result<(), SmoothingError> {
-        match self.registration_error {
-            Some(error) => check(
-                error,
-                self.distance.unwrap_or(2.0 * error),
-                self.across_cells * cell_size,
-                self.max_angle,
-            ),
-            None => Ok(()),
+        let Some(error) = self.registration_error else {
+            return Ok(());
+        };
+        let check = |name, v: f64| {
+            within(RANGES, name, v).map_err(|(name, why)| SmoothingError::BadParam { name, why })
+        };
+        check("registration_error", error)?;
+        if let Some(d) = self.distance {
+            check("distance", d)?;
         }
-    }
-}
-
-fn check(error: f64, along: f64, across: f64, max_angle: f64) -> Result<(), SmoothingError> {
-    let positive = |name, v: f64| {
-        if v.is_finite() && v > 0.0 {
-            Ok(())
-        } else {
-            Err(SmoothingError::BadParam {
-                name,
-                why: format!("{v} is not a positive number"),
-            })
+        check("across_cells", self.across_cells)?;
+        check("max_angle", self.max_angle)?;
+        let across = self.across_cells * cell_size;
+        if !(across.is_finite() && across > 0.0) {
+            return Err(SmoothingError::BadParam {
+                name: "across_cells",
+                why: format!("across_cells × cell_size = {across} is not a positive distance"),
+            });
         }
-    };
-    positive("registration_error", error)?;
-    positive("distance", along)?;
-    positive("across_cells × cell_size", across)?;
-    if !(0.0..=std::f64::consts::PI).contains(&max_angle) {
-        return Err(SmoothingError::BadParam {
-            name: "max_angle",
-            why: format!("{max_angle} is not within 0..=π"),
-        });
+        Ok(())
     }
-    Ok(())
 }
 
 /// The smoothing-set tests of §3.2.
@@ -215,7 +225,7 @@ mod tests {
             samples: [wall(0.0, [0.0, 1.0], false), wall(0.02, [0.0, 1.0], false)].concat(),
             ..Default::default()
         };
-        smooth_samples(&mut s, 0.05, &on(0.02)).unwrap();
+        smooth_samples(&mut s, 0.05, &on(0.02), &Cancel::never()).unwrap();
         for t in &s.samples {
             assert!((t.pos[1] - 0.01).abs() < 1e-12, "{t:?}");
         }
@@ -230,7 +240,13 @@ mod tests {
             ..Default::default()
         };
         let mut after = before.clone();
-        smooth_samples(&mut after, 0.05, &SmoothingParams::default()).unwrap();
+        smooth_samples(
+            &mut after,
+            0.05,
+            &SmoothingParams::default(),
+            &Cancel::never(),
+        )
+        .unwrap();
         assert_eq!(before, after);
     }
 
@@ -250,7 +266,7 @@ mod tests {
             ..Default::default()
         };
         let before = s.clone();
-        smooth_samples(&mut s, 0.05, &on(0.05)).unwrap();
+        smooth_samples(&mut s, 0.05, &on(0.05), &Cancel::never()).unwrap();
         for (a, b) in s.samples.iter().zip(&before.samples) {
             // Only moves along a wall, never across it.
             let moved = sub(a.pos, b.pos);
@@ -265,7 +281,7 @@ mod tests {
             .concat(),
             ..Default::default()
         };
-        smooth_samples(&mut faces, 0.05, &on(0.05)).unwrap();
+        smooth_samples(&mut faces, 0.05, &on(0.05), &Cancel::never()).unwrap();
         assert!(faces
             .samples
             .iter()
@@ -275,7 +291,7 @@ mod tests {
     #[test]
     fn bad_parameters_are_named() {
         let mut s = WallSamples::default();
-        let err = smooth_samples(&mut s, 0.05, &on(-1.0)).unwrap_err();
+        let err = smooth_samples(&mut s, 0.05, &on(-1.0), &Cancel::never()).unwrap_err();
         assert!(matches!(
             err,
             SmoothingError::BadParam {
@@ -288,7 +304,7 @@ mod tests {
             ..on(0.01)
         };
         assert!(matches!(
-            smooth_samples(&mut s, 0.05, &p),
+            smooth_samples(&mut s, 0.05, &p, &Cancel::never()),
             Err(SmoothingError::BadParam {
                 name: "max_angle",
                 ..

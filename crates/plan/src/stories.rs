@@ -8,15 +8,25 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::params::{within, ParamRange};
+
 /// Parameters of [`split_stories`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct StoriesParams {
     /// Height histogram bin width in metres. The paper leaves it open; 5 cm matches d_s (§3.1).
+    /// Range 0.005..=0.5.
     pub bin_size: f64,
     /// Minimum floor-to-ceiling height of a story, metres (§3.1: "typically ~2 meters").
+    /// Range 0.5..=10.
     pub min_wall_height: f64,
 }
+
+/// The accepted values of [`StoriesParams`] (see [`crate::params::ParamRange`]).
+pub const RANGES: &[ParamRange] = &[
+    ParamRange::new("bin_size", 0.005, 0.5, "m"),
+    ParamRange::new("min_wall_height", 0.5, 10.0, "m"),
+];
 
 impl Default for StoriesParams {
     fn default() -> Self {
@@ -227,18 +237,11 @@ impl HeightHistogram {
 const SUM_SCALE: f64 = 4_294_967_296.0;
 
 fn check_params(params: &StoriesParams) -> Result<(), StoriesError> {
-    let positive = |name, v: f64| {
-        if v.is_finite() && v > 0.0 {
-            Ok(())
-        } else {
-            Err(StoriesError::BadParam {
-                name,
-                why: format!("{v} is not a positive number"),
-            })
-        }
+    let check = |name, v: f64| {
+        within(RANGES, name, v).map_err(|(name, why)| StoriesError::BadParam { name, why })
     };
-    positive("bin_size", params.bin_size)?;
-    positive("min_wall_height", params.min_wall_height)
+    check("bin_size", params.bin_size)?;
+    check("min_wall_height", params.min_wall_height)
 }
 
 fn describe(candidates: &[Peak]) -> String {

@@ -18,6 +18,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+use crate::cancel::Cancel;
 use crate::cloud::{PointCloud, ScanPose, TrajectorySample};
 use crate::io::chunks::{open_chunks, PointChunk};
 use crate::io::poses::{attach_poses, attach_trajectory, PosesError};
@@ -113,6 +114,8 @@ pub fn plan_file(
     progress: &mut dyn Progress,
 ) -> Result<(FloorPlan, StreamReport), StreamingError> {
     let start = Instant::now();
+    let cancel = progress.cancel();
+    let stop = || -> Result<(), StreamingError> { Ok(cancel.check().map_err(PlanError::from)?) };
     let mut timings = Timings::default();
     let keep_time = matches!(sidecar, Sidecar::Trajectory(_));
     let read = ReadOptions {
@@ -127,6 +130,7 @@ pub fn plan_file(
     let mut chunk = PointChunk::default();
     let mut survey = Survey::default();
     while chunks.next_chunk(&mut chunk)? {
+        stop()?;
         survey.add(&chunk);
     }
     let mut skeleton = chunks.skeleton()?;
@@ -137,9 +141,7 @@ pub fn plan_file(
     }
     attach(&mut skeleton, sidecar, &survey)?;
     let tiling = Tiling::plan(&survey, &skeleton, params, stream)?;
-    if progress.cancelled() {
-        return Err(PlanError::Cancelled.into());
-    }
+    stop()?;
 
     // Pass 2: the height histogram, the units check's sample, and the tile files.
     progress.report(Stage::Read, 0.3);
@@ -158,6 +160,7 @@ pub fn plan_file(
     let mut index = 0u64;
     let mut chunks = open_chunks(path, &read)?;
     while chunks.next_chunk(&mut chunk)? {
+        stop()?;
         for (k, p) in chunk.xyz.iter().enumerate() {
             hist.add(p[2]);
             if index.is_multiple_of(step) {
@@ -185,9 +188,7 @@ pub fn plan_file(
     let stories = timings.time(Stage::Stories, || hist.stories(&params.stories));
     let stories = stories.map_err(PlanError::from)?;
     drop(hist);
-    if progress.cancelled() {
-        return Err(PlanError::Cancelled.into());
-    }
+    stop()?;
 
     // The tiles: each story's bounds, then its cells.
     progress.report(Stage::Samples, 0.5);
@@ -203,6 +204,7 @@ pub fn plan_file(
     };
     let mut bounds = vec![StoryBounds::default(); stories.len()];
     for t in 0..tiling.count() {
+        stop()?;
         let cloud = tile_cloud(t)?;
         for (b, story) in bounds.iter_mut().zip(&stories) {
             *b = StoryBounds::merge(*b, StoryBounds::measure(&cloud.xyz, story));
@@ -219,9 +221,7 @@ pub fn plan_file(
         .collect();
     let mut max_tile_points = 0;
     for t in 0..tiling.count() {
-        if progress.cancelled() {
-            return Err(PlanError::Cancelled.into());
-        }
+        stop()?;
         progress.report(Stage::Samples, 0.5 + 0.3 * t as f64 / tiling.count() as f64);
         let cloud = tile_cloud(t)?;
         max_tile_points = max_tile_points.max(cloud.len() as u64);
@@ -238,8 +238,10 @@ pub fn plan_file(
                 &params.samples,
                 frame,
                 core,
+                &cancel,
             ) {
                 Ok(scan) => list.push(scan),
+                Err(SamplesError::Cancelled(c)) => return Err(PlanError::Cancelled(c).into()),
                 Err(e) => *entry = Err(e),
             }
         }
@@ -269,7 +271,7 @@ pub fn plan_file(
     drop(store);
 
     let mut next = 0;
-    let mut sample = |_: &Story| {
+    let mut sample = |_: &Story, _: &Cancel| {
         let out = samples[next].take().expect("one sampling per story");
         next += 1;
         out

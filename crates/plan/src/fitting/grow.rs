@@ -2,6 +2,7 @@
 //! boundary with too few samples are reset, and unassigned samples join a model that is
 //! reachable within a few boundary hops.
 
+use crate::cancel::{Cancel, Cancelled};
 use crate::cleanup::UnionFind;
 use crate::fitting::model::Model;
 use crate::fitting::BoundarySamples;
@@ -40,16 +41,21 @@ pub fn reset_small_components(
 /// Gives each unassigned sample the nearest model (by distance to the model, then by hops)
 /// among those owning a sample within `hops` boundary edges. Decisions are taken on the
 /// assignment as it was before growing, so the result does not depend on sample order.
-/// Returns how many samples joined a model.
+/// Returns how many samples joined a model; stops with `Cancelled` once `cancel` says so.
 pub fn grow(
     samples: &BoundarySamples,
     models: &[Model],
     assigned: &mut [Option<usize>],
     hops: usize,
-) -> usize {
+    cancel: &Cancel,
+) -> Result<usize, Cancelled> {
     let before = assigned.to_vec();
     let mut grown = 0;
     for v in 0..samples.pos.len() {
+        // Each search visits up to ~2 × hops samples, each looked up in the visited list.
+        if v % 64 == 0 {
+            cancel.check()?;
+        }
         if before[v].is_some() {
             continue;
         }
@@ -85,7 +91,7 @@ pub fn grow(
             grown += 1;
         }
     }
-    grown
+    Ok(grown)
 }
 
 #[cfg(test)]
@@ -131,7 +137,7 @@ mod tests {
             point: [0.0, 0.1],
             dir: [1.0, 0.0],
         });
-        let grown = grow(&s, &[line, far], &mut a, 15);
+        let grown = grow(&s, &[line, far], &mut a, 15, &Cancel::never()).unwrap();
         // Samples 20..=34 reach model 0 within 15 hops; 30..45 reach model 1, which is farther
         // away geometrically, so shared ones go to model 0. Sample 35..=44 reach only model 1.
         assert_eq!(grown, 25);

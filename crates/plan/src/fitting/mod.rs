@@ -3,8 +3,10 @@
 //!
 //! The steps: [`ransac`] finds the models, [`grow`] resets small components and grows models
 //! along the boundary, [`rebuild`] replaces each ring's runs with edges on their models, and
-//! [`simple`] checks that the result is valid. Where rebuilt edges cross, the models involved
-//! are undone locally (the traced boundary is kept there) and the repair is noted.
+//! [`simple`] finds where the result is not valid. Where rebuilt edges cross (a corner placed
+//! past a neighbour, the two faces of a thin wall fitted leaning into each other), the crossing
+//! becomes a corner and the region the walls enclose counter-clockwise is kept
+//! ([`crate::validity::resolve`]); the repair is noted. The traced staircase is never put back.
 
 pub mod circle;
 pub mod grow;
@@ -19,43 +21,66 @@ use std::collections::HashMap;
 use serde::{Deserialize, Serialize};
 
 use crate::boundary::Boundary;
+use crate::cancel::{Cancel, Cancelled};
 use crate::geom::{self, P2};
 use crate::labeling::LabeledMesh;
+use crate::params::{within, ParamRange};
 use crate::plan::{Polygon, Wall};
+use crate::validity::{self, Grid};
 
 /// Parameters of [`fit_walls`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FittingParams {
-    /// Inlier distance threshold, metres (§3.5 leaves it open; about half d_s).
+    /// Inlier distance threshold, metres (§3.5 leaves it open; about half d_s). Range 0.001..=1.
     pub inlier_distance: f64,
-    /// Inlier normal angle threshold, radians (§3.5 leaves it open).
+    /// Inlier normal angle threshold, radians (§3.5 leaves it open). Range 0.01..=π/2.
     pub inlier_angle: f64,
     /// Minimum inliers for a model (§3.5: "a specified minimum number of inliers").
+    /// Range 3..=1000.
     pub min_inliers: usize,
-    /// Connected components of a model with fewer samples are reset (§3.5: 15).
+    /// Connected components of a model with fewer samples are reset (§3.5: 15). Range 0..=1000.
     pub min_component: usize,
     /// Unassigned samples within this many boundary hops join the nearest model (§3.5: 15).
+    /// Range 0..=200.
     pub grow_hops: usize,
     /// RANSAC iterations per model search (an upper bound; the search stops early once the
-    /// best model is found with 99% confidence).
+    /// best model is found with 99% confidence). Range 1..=100000.
     pub iterations: usize,
     /// Fit circles as well as lines (§3.5).
     pub circles: bool,
-    /// Circles larger than this are treated as lines, metres.
+    /// Circles larger than this are treated as lines, metres. Range 0.01..=1000.
     pub max_radius: f64,
     /// An arc that bows less than this from its chord over its inliers becomes a line, metres.
     /// Beyond the paper (which keeps whichever model has more inliers): on the real apartment,
     /// short straight walls came out as 5 m and 21 m arcs bowing 1 to 2 cm, within the inlier band.
+    /// Range 0..=1.
     pub min_arc_sagitta: f64,
     /// Two neighbouring models meet at their intersection only when it lies within this
     /// distance of both runs' end samples, metres (§3.5 "sharp corners"; the limit is ours).
+    /// Range 0..=10.
     pub max_corner_distance: f64,
     /// Arcs are densified so that chords stray at most this far from the circle, metres.
+    /// Range 0.0001..=1.
     pub arc_chord_error: f64,
     /// Random seed, so that runs repeat exactly.
     pub seed: u64,
 }
+
+/// The accepted values of [`FittingParams`] (see [`crate::params::ParamRange`]). The counts
+/// bound RANSAC's and growing's work per model and per sample; cancellation bounds the rest.
+pub const RANGES: &[ParamRange] = &[
+    ParamRange::new("inlier_distance", 0.001, 1.0, "m"),
+    ParamRange::new("inlier_angle", 0.01, std::f64::consts::FRAC_PI_2, "rad"),
+    ParamRange::new("min_inliers", 3.0, 1000.0, ""),
+    ParamRange::new("min_component", 0.0, 1000.0, ""),
+    ParamRange::new("grow_hops", 0.0, 200.0, ""),
+    ParamRange::new("iterations", 1.0, 100_000.0, ""),
+    ParamRange::new("max_radius", 0.01, 1000.0, "m"),
+    ParamRange::new("min_arc_sagitta", 0.0, 1.0, "m"),
+    ParamRange::new("max_corner_distance", 0.0, 10.0, "m"),
+    ParamRange::new("arc_chord_error", 0.0001, 1.0, "m"),
+];
 
 impl Default for FittingParams {
     fn default() -> Self {
@@ -81,7 +106,7 @@ impl Default for FittingParams {
 pub struct FittedStory {
     pub polygons: Vec<Polygon>,
     pub walls: Vec<Wall>,
-    /// Repairs worth telling the user about (models undone where rebuilt edges crossed).
+    /// Repairs worth telling the user about (crossings of rebuilt walls resolved).
     pub notes: Vec<String>,
 }
 
@@ -90,8 +115,8 @@ pub struct FittedStory {
 pub enum FittingError {
     #[error("invalid fitting parameter `{name}`: {why}")]
     BadParam { name: &'static str, why: String },
-    #[error("fitting broke the plan: {0}")]
-    Invalid(String),
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
 }
 
 /// The boundary vertices RANSAC works on, with the boundary edges between them.
@@ -114,52 +139,36 @@ impl FittingParams {
 }
 
 fn check_params(p: &FittingParams) -> Result<(), FittingError> {
-    let bad = |name, why: &str| {
-        Err(FittingError::BadParam {
-            name,
-            why: why.into(),
-        })
+    let check = |name, v: f64| {
+        within(RANGES, name, v).map_err(|(name, why)| FittingError::BadParam { name, why })
     };
-    if !(p.inlier_distance.is_finite() && p.inlier_distance > 0.0) {
-        return bad("inlier_distance", "must be a positive number of metres");
-    }
-    if !(p.inlier_angle > 0.0 && p.inlier_angle <= std::f64::consts::FRAC_PI_2) {
-        return bad("inlier_angle", "must be in (0, π/2] radians");
-    }
-    if p.min_inliers < 3 {
-        return bad("min_inliers", "must be at least 3");
-    }
-    if p.iterations == 0 {
-        return bad("iterations", "must be at least 1");
-    }
-    if p.max_radius.is_nan() || p.max_radius <= 0.0 {
-        return bad("max_radius", "must be positive");
-    }
-    if p.min_arc_sagitta.is_nan() || p.min_arc_sagitta < 0.0 {
-        return bad("min_arc_sagitta", "must not be negative");
-    }
-    if p.max_corner_distance.is_nan() || p.max_corner_distance < 0.0 {
-        return bad("max_corner_distance", "must not be negative");
-    }
-    if !(p.arc_chord_error.is_finite() && p.arc_chord_error > 0.0) {
-        return bad("arc_chord_error", "must be a positive number of metres");
-    }
-    Ok(())
+    check("inlier_distance", p.inlier_distance)?;
+    check("inlier_angle", p.inlier_angle)?;
+    check("min_inliers", p.min_inliers as f64)?;
+    check("min_component", p.min_component as f64)?;
+    check("grow_hops", p.grow_hops as f64)?;
+    check("iterations", p.iterations as f64)?;
+    check("max_radius", p.max_radius)?;
+    check("min_arc_sagitta", p.min_arc_sagitta)?;
+    check("max_corner_distance", p.max_corner_distance)?;
+    check("arc_chord_error", p.arc_chord_error)
 }
 
-/// Fits lines and circles to the boundary and rebuilds it on the models.
+/// Fits lines and circles to the boundary and rebuilds it on the models. Stops with
+/// `Cancelled` once `cancel` says so.
 pub fn fit_walls(
     labeled: &LabeledMesh,
     boundary: &Boundary,
     params: &FittingParams,
+    cancel: &Cancel,
 ) -> Result<FittedStory, FittingError> {
     check_params(params)?;
     let (samples, rings, exterior_of) = collect_samples(labeled, boundary);
-    let consensus = ransac::find_models(&samples, params);
+    let consensus = ransac::find_models(&samples, params, cancel)?;
     let models = consensus.models;
     let mut assigned = consensus.assigned;
     grow::reset_small_components(&samples, &mut assigned, params.min_component);
-    grow::grow(&samples, &models, &mut assigned, params.grow_hops);
+    grow::grow(&samples, &models, &mut assigned, params.grow_hops, cancel)?;
 
     let ring_pos: Vec<Vec<P2>> = rings
         .iter()
@@ -169,30 +178,41 @@ pub fn fit_walls(
         .iter()
         .map(|r| r.iter().map(|&s| assigned[s]).collect())
         .collect();
-    let (rebuilt, undone) = rebuild_valid(&ring_pos, ring_assign, &exterior_of, &models, params)?;
-    let mut notes = Vec::new();
-    if !undone.is_empty() {
-        let at: Vec<String> = undone
-            .iter()
-            .take(5)
-            .map(|p| format!("({:.2}, {:.2})", p[0], p[1]))
-            .collect();
-        notes.push(format!(
-            "fitting: {} wall piece(s) kept as traced because their rebuilt edges crossed, near local {}{}",
-            undone.len(),
-            at.join(", "),
-            if undone.len() > 5 { ", …" } else { "" }
-        ));
-    }
+    let rebuilt: Vec<rebuild::Rebuilt> = ring_pos
+        .iter()
+        .zip(&ring_assign)
+        .map(|(pos, a)| rebuild::rebuild_ring(pos, a, &models, params))
+        .collect();
+    let points: Vec<Vec<P2>> = rebuilt.iter().map(|r| r.points.clone()).collect();
+    let problems = simple::problems(&points, &exterior_of);
     let mut polygons: Vec<Polygon> = Vec::new();
     for (r, ext) in exterior_of.iter().enumerate() {
-        let points = rebuilt[r].points.clone();
+        let points = points[r].clone();
         match (ext, polygons.last_mut()) {
             (Some(_), Some(p)) => p.holes.push(points),
             _ => polygons.push(Polygon {
                 exterior: points,
                 holes: Vec::new(),
             }),
+        }
+    }
+    let mut notes = Vec::new();
+    if !problems.is_empty() {
+        // Where rebuilt walls cross (or a ring folds over), the crossing points become corners
+        // and what the walls enclose counter-clockwise stays inside.
+        let at = problem_places(&problems, &points);
+        match validity::resolve(&polygons, &Grid::local()) {
+            Ok(resolved) => {
+                polygons = resolved;
+                notes.push(format!(
+                    "fitting: {} crossing(s) or fold(s) of fitted walls resolved where they cross, near local {at}",
+                    problems.len()
+                ));
+            }
+            Err(why) => notes.push(format!(
+                "fitting: {} crossing(s) of fitted walls near local {at} could not be resolved ({why})",
+                problems.len()
+            )),
         }
     }
     let walls = rebuilt.into_iter().flat_map(|r| r.walls).collect();
@@ -281,78 +301,26 @@ fn orient_normals(samples: &mut BoundarySamples, ring: &[usize]) {
     }
 }
 
-/// Rebuilds every ring and, while the result is invalid, undoes the models of the pieces
-/// involved in each problem (per ring, so a model shared by other rooms survives there) and
-/// rebuilds again. Each round undoes at least one piece, so this ends; if a problem involves no
-/// model at all the traced boundary itself is invalid, which is an error. Returns the rings and
-/// the centre of every piece undone.
-fn rebuild_valid(
-    ring_pos: &[Vec<P2>],
-    mut ring_assign: Vec<Vec<Option<usize>>>,
-    exterior_of: &[Option<usize>],
-    models: &[model::Model],
-    params: &FittingParams,
-) -> Result<(Vec<rebuild::Rebuilt>, Vec<P2>), FittingError> {
-    let mut undone: Vec<P2> = Vec::new();
-    loop {
-        let rebuilt: Vec<rebuild::Rebuilt> = ring_pos
-            .iter()
-            .zip(&ring_assign)
-            .map(|(pos, a)| rebuild::rebuild_ring(pos, a, models, params))
-            .collect();
-        let points: Vec<Vec<P2>> = rebuilt.iter().map(|r| r.points.clone()).collect();
-        let problems = simple::problems(&points, exterior_of);
-        if problems.is_empty() {
-            return Ok((rebuilt, undone));
-        }
-        let whole = |r: usize| (0..rebuilt[r].pieces.len()).map(move |k| (r, k));
-        let mut to_undo: Vec<(usize, usize)> = Vec::new();
-        for p in &problems {
-            match *p {
-                simple::Problem::Crossing(s, t) => {
-                    for (r, i) in [s, t] {
-                        // A segment belongs to the piece of its end point (a shared corner is
-                        // emitted by the piece before); a link from a run to a traced vertex
-                        // belongs to the run.
-                        let (of, pieces) = (&rebuilt[r].piece_of_point, &rebuilt[r].pieces);
-                        let end = of[(i + 1) % of.len()];
-                        let owner = if pieces[end].model.is_some() {
-                            end
-                        } else {
-                            of[i]
-                        };
-                        to_undo.push((r, owner));
-                    }
-                }
-                simple::Problem::BadRing(r) => to_undo.extend(whole(r)),
-                simple::Problem::HoleOutside { hole, exterior } => {
-                    to_undo.extend(whole(hole).chain(whole(exterior)));
-                }
-            }
-        }
-        to_undo.sort_unstable();
-        to_undo.dedup();
-        let before = undone.len();
-        for (r, k) in to_undo {
-            let piece = &rebuilt[r].pieces[k];
-            if piece.model.is_none() {
-                continue;
-            }
-            for &i in &piece.positions {
-                ring_assign[r][i] = None;
-            }
-            let n = piece.positions.len() as f64;
-            undone.push(piece.positions.iter().fold([0.0, 0.0], |acc, &i| {
-                geom::add(acc, geom::scale(ring_pos[r][i], 1.0 / n))
-            }));
-        }
-        if undone.len() == before {
-            return Err(FittingError::Invalid(format!(
-                "the traced boundary itself is not valid: {:?}",
-                problems[0]
-            )));
-        }
-    }
+/// Where the first few problems are, for a note: "(x, y), (x, y), …".
+fn problem_places(problems: &[simple::Problem], rings: &[Vec<P2>]) -> String {
+    let at: Vec<String> = problems
+        .iter()
+        .take(5)
+        .map(|p| {
+            let (r, i) = match *p {
+                simple::Problem::Crossing(s, _) => s,
+                simple::Problem::BadRing(r) => (r, 0),
+                simple::Problem::HoleOutside { hole, .. } => (hole, 0),
+            };
+            let q = rings[r].get(i).copied().unwrap_or([0.0, 0.0]);
+            format!("({:.2}, {:.2})", q[0], q[1])
+        })
+        .collect();
+    format!(
+        "{}{}",
+        at.join(", "),
+        if problems.len() > 5 { ", …" } else { "" }
+    )
 }
 
 #[cfg(test)]

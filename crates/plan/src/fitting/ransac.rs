@@ -16,6 +16,7 @@
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+use crate::cancel::{Cancel, Cancelled};
 use crate::fitting::circle::Circle;
 use crate::fitting::line::Line;
 use crate::fitting::model::Model;
@@ -29,8 +30,13 @@ pub struct Consensus {
     pub support: Vec<usize>,
 }
 
-/// Runs RANSAC until no model with enough inliers is left.
-pub fn find_models(samples: &BoundarySamples, params: &FittingParams) -> Consensus {
+/// Runs RANSAC until no model with enough inliers is left; stops with `Cancelled` once
+/// `cancel` says so.
+pub fn find_models(
+    samples: &BoundarySamples,
+    params: &FittingParams,
+    cancel: &Cancel,
+) -> Result<Consensus, Cancelled> {
     let n = samples.pos.len();
     let mut rng = ChaCha8Rng::seed_from_u64(params.seed);
     let mut assigned: Vec<Option<usize>> = vec![None; n];
@@ -43,7 +49,8 @@ pub fn find_models(samples: &BoundarySamples, params: &FittingParams) -> Consens
         if pool.len() < params.min_inliers.max(3) {
             break;
         }
-        let Some((model, inliers)) = best_model(samples, params, &pool, window, min_cos, &mut rng)
+        let Some((model, inliers)) =
+            best_model(samples, params, &pool, window, min_cos, &mut rng, cancel)?
         else {
             break;
         };
@@ -53,11 +60,11 @@ pub fn find_models(samples: &BoundarySamples, params: &FittingParams) -> Consens
         support.push(inliers.len());
         models.push(model);
     }
-    Consensus {
+    Ok(Consensus {
         models,
         assigned,
         support,
-    }
+    })
 }
 
 /// The unassigned samples in `pool` that `model` accepts.
@@ -161,7 +168,8 @@ fn best_model(
     window: usize,
     min_cos: f64,
     rng: &mut ChaCha8Rng,
-) -> Option<(Model, Vec<usize>)> {
+    cancel: &Cancel,
+) -> Result<Option<(Model, Vec<usize>)>, Cancelled> {
     let t = params.inlier_distance;
     let mut in_pool = vec![false; samples.pos.len()];
     for &i in pool {
@@ -171,6 +179,8 @@ fn best_model(
     let mut needed = params.iterations;
     let mut it = 0;
     while it < needed.min(params.iterations) {
+        // An iteration scores two models against the whole pool: check every time.
+        cancel.check()?;
         it += 1;
         let a = pool[rng.random_range(0..pool.len())];
         let near: Vec<usize> = neighbourhood(samples, a, window)
@@ -217,8 +227,10 @@ fn best_model(
             }
         }
     }
-    let (_, model, side) = best?;
-    refine(samples, params, pool, model, min_cos, side)
+    let Some((_, model, side)) = best else {
+        return Ok(None);
+    };
+    Ok(refine(samples, params, pool, model, min_cos, side))
 }
 
 /// Least-squares refits on the inliers until the inlier set stops changing (at most 5 times).
@@ -322,7 +334,7 @@ mod tests {
             .map(|i| Some(if i < 40 { [0.0, -1.0] } else { [0.0, 1.0] }))
             .collect();
         let s = loop_samples(pos, normal);
-        let c = find_models(&s, &FittingParams::default());
+        let c = find_models(&s, &FittingParams::default(), &Cancel::never()).unwrap();
         assert_eq!(c.models.len(), 2, "{:?}", c.models);
         assert!(c.assigned[..40].iter().all(|a| *a == c.assigned[0]));
         assert!(c.assigned[40..].iter().all(|a| *a == c.assigned[40]));
@@ -347,7 +359,7 @@ mod tests {
             normal.push(Some([a.cos(), a.sin()]));
         }
         let s = loop_samples(pos, normal);
-        let c = find_models(&s, &FittingParams::default());
+        let c = find_models(&s, &FittingParams::default(), &Cancel::never()).unwrap();
         assert_eq!(c.models.len(), 1, "{:?}", c.models);
         let Model::Circle(circle) = c.models[0] else {
             panic!("expected a circle, got {:?}", c.models[0]);
@@ -408,7 +420,7 @@ mod tests {
         pos.extend(pos.clone());
         let normal = vec![geom::normalize([-0.02, 0.05]); pos.len()];
         let s = loop_samples(pos, normal);
-        let c = find_models(&s, &FittingParams::default());
+        let c = find_models(&s, &FittingParams::default(), &Cancel::never()).unwrap();
         assert_eq!(c.models.len(), 1);
         let Model::Line(l) = c.models[0] else {
             panic!("expected a line");
@@ -425,7 +437,7 @@ mod tests {
             .map(|i| Some(if i < 30 { [0.0, 1.0] } else { [1.0, 0.0] }))
             .collect();
         let s = loop_samples(pos, normal);
-        let c = find_models(&s, &FittingParams::default());
+        let c = find_models(&s, &FittingParams::default(), &Cancel::never()).unwrap();
         assert_eq!(c.models.len(), 1);
         assert!(c.assigned[..30].iter().all(|a| *a == Some(0)));
         assert!(c.assigned[30..].iter().all(|a| a.is_none()));
@@ -442,8 +454,8 @@ mod tests {
         let normal = pos.iter().map(|&p| geom::normalize(p)).collect();
         let s = loop_samples(pos, normal);
         let p = FittingParams::default();
-        let a = find_models(&s, &p);
-        let b = find_models(&s, &p);
+        let a = find_models(&s, &p, &Cancel::never()).unwrap();
+        let b = find_models(&s, &p, &Cancel::never()).unwrap();
         assert_eq!(a.models, b.models);
         assert_eq!(a.assigned, b.assigned);
     }

@@ -19,6 +19,7 @@ use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
+use crate::cancel::{Cancel, Cancelled};
 use crate::cloud::{PointCloud, Viewpoints};
 pub use detect::Format;
 pub use units::{check_units, UnitsError};
@@ -44,6 +45,9 @@ pub enum ReadError {
     Poses { path: String, why: String },
     #[error("{path}: {why}")]
     Options { path: String, why: String },
+    /// `ReadOptions::cancel` stopped the read.
+    #[error("{1}: reading stopped: {0}")]
+    Cancelled(Cancelled, String),
 }
 
 impl ReadError {
@@ -98,6 +102,7 @@ impl ReadError {
             ReadError::Invalid { .. } => "invalid_file",
             ReadError::Poses { .. } => "invalid_poses",
             ReadError::Options { .. } => "invalid_options",
+            ReadError::Cancelled(c, _) => c.code(),
         }
     }
 }
@@ -114,6 +119,9 @@ pub struct ReadOptions {
     /// Keep per-point acquisition times (LAS `gps_time`, PLY `time`). They cost 8 bytes a point,
     /// so callers without a trajectory may turn them off.
     pub keep_time: bool,
+    /// Stops the read (checked every time the reader asks its source for bytes, about every
+    /// megabyte); the read then fails with [`ReadError::Cancelled`].
+    pub cancel: Cancel,
 }
 
 impl Default for ReadOptions {
@@ -123,6 +131,7 @@ impl Default for ReadOptions {
             scan_column: None,
             format: None,
             keep_time: true,
+            cancel: Cancel::never(),
         }
     }
 }
@@ -138,10 +147,19 @@ pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<PointCloud,
     let mut file = File::open(path).map_err(|e| ReadError::io(&name, e))?;
     let head = sniff(&mut file, &name)?;
     let format = choose_format(&name, &head, options)?;
-    let mut cloud = match format {
-        Format::Ply => ply::read_ply(path)?,
-        _ => read_stream(file, &name, format, options)?,
+    let file = Checked::new(file, &options.cancel);
+    let read = match format {
+        Format::Ply => {
+            let len = file
+                .inner
+                .metadata()
+                .map_err(|e| ReadError::io(&name, e))?
+                .len();
+            ply::read_ply_from(file, len, &name)
+        }
+        _ => read_stream(file, &name, format, options),
     };
+    let mut cloud = stopped(read, &name, options)?;
     if let Some(named) = Format::from_extension(path) {
         let same = named == format || matches!((named, format), (Format::Las, Format::Laz));
         if !same && options.format.is_none() {
@@ -164,8 +182,51 @@ where
 {
     let head = sniff(&mut source, name)?;
     let format = choose_format(name, &head, options)?;
-    let cloud = read_stream(source, name, format, options)?;
+    let source = Checked::new(source, &options.cancel);
+    let cloud = stopped(read_stream(source, name, format, options), name, options)?;
     finish(cloud, name, options)
+}
+
+/// A read that failed because `options.cancel` stopped it, whatever error the reader made of
+/// the refused bytes, becomes [`ReadError::Cancelled`].
+fn stopped(
+    read: Result<PointCloud, ReadError>,
+    name: &str,
+    options: &ReadOptions,
+) -> Result<PointCloud, ReadError> {
+    match (read, options.cancel.check()) {
+        (Err(_), Err(c)) => Err(ReadError::Cancelled(c, name.to_string())),
+        (read, _) => read,
+    }
+}
+
+/// A source that refuses to give more bytes once its [`Cancel`] says stop: every reader asks
+/// its source for the next buffer, so this puts a check in every reader's loop.
+struct Checked<R> {
+    inner: R,
+    cancel: Cancel,
+}
+
+impl<R> Checked<R> {
+    fn new(inner: R, cancel: &Cancel) -> Checked<R> {
+        Checked {
+            inner,
+            cancel: cancel.clone(),
+        }
+    }
+}
+
+impl<R: Read> Read for Checked<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        self.cancel.check().map_err(std::io::Error::other)?;
+        self.inner.read(buf)
+    }
+}
+
+impl<R: Seek> Seek for Checked<R> {
+    fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
+        self.inner.seek(pos)
+    }
 }
 
 /// The first bytes, for detection; the source is rewound afterwards.

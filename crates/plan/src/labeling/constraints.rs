@@ -6,6 +6,7 @@ use rayon::prelude::*;
 use super::mesh::Mesh;
 use super::walk::{locate, segment_triangles};
 use super::LabelingParams;
+use crate::cancel::{Cancel, Cancelled};
 use crate::geom::{self, P2};
 use crate::samples::WallSamples;
 
@@ -31,12 +32,13 @@ pub(crate) struct Constraints {
 /// Computes the hard constraints for `mesh` from the samples' viewpoints and path.
 /// `min_rays` lines of sight force a triangle inside; each line of sight is the central
 /// `ray_fraction` of its viewpoint→sample segment, extended back to the viewpoint when
-/// `rays_from_scanner` is set.
+/// `rays_from_scanner` is set. Stops with `Cancelled` once `cancel` says so.
 pub(crate) fn hard_constraints(
     mesh: &Mesh,
     samples: &WallSamples,
     params: &LabelingParams,
-) -> Constraints {
+    cancel: &Cancel,
+) -> Result<Constraints, Cancelled> {
     let min_rays = params.min_rays;
     let nt = mesh.triangles.len();
     let mut c = Constraints {
@@ -71,7 +73,11 @@ pub(crate) fn hard_constraints(
 
     // Mobile path: every triangle a path segment crosses.
     let mut path_hint = vp_tri.iter().flatten().next().copied().unwrap_or(0);
-    for w in samples.path.windows(2) {
+    for (k, w) in samples.path.windows(2).enumerate() {
+        // Each walk may cross the whole mesh.
+        if k % 64 == 0 {
+            cancel.check()?;
+        }
         let (a, b) = (w[0], w[1]);
         if !(finite(a) && finite(b)) {
             continue;
@@ -98,6 +104,10 @@ pub(crate) fn hard_constraints(
         .fold(
             || (vec![0u32; nt], 0usize, 0usize),
             |(mut counts, mut walked, mut skipped), s| {
+                // A sample's rays may each cross the whole mesh: check once per sample.
+                if cancel.is_stopped() {
+                    return (counts, walked, skipped);
+                }
                 for &v in &s.seen_from {
                     let (Some(&a), Some(Some(start))) =
                         (samples.viewpoints.get(v as usize), vp_tri.get(v as usize))
@@ -129,6 +139,7 @@ pub(crate) fn hard_constraints(
                 (a, wa + wb, sa + sb)
             },
         );
+    cancel.check()?;
     c.rays = walked;
     c.rays_skipped = skipped;
     for (t, &n) in counts.iter().enumerate() {
@@ -148,7 +159,7 @@ pub(crate) fn hard_constraints(
             c.forced[t] = Some(true);
         }
     }
-    c
+    Ok(c)
 }
 
 fn finite(p: P2) -> bool {
@@ -191,7 +202,7 @@ mod tests {
         let ws = room(vec![[2.0, 2.1], [1.1, 1.3]]);
         let pts: Vec<P2> = ws.samples.iter().map(|s| s.pos).collect();
         let mesh = Mesh::build(&pts, &[]).unwrap();
-        let c = hard_constraints(&mesh, &ws, &LabelingParams::default());
+        let c = hard_constraints(&mesh, &ws, &LabelingParams::default(), &Cancel::never()).unwrap();
         assert_eq!(c.rays, 2 * ws.samples.len());
         assert_eq!(c.rays_skipped, 0);
         assert_eq!(c.inside_poses, 2);
@@ -220,7 +231,7 @@ mod tests {
         ws.path = vec![[0.5, 0.5], [3.5, 3.5], [7.0, 3.5]];
         let pts: Vec<P2> = ws.samples.iter().map(|s| s.pos).collect();
         let mesh = Mesh::build(&pts, &[]).unwrap();
-        let c = hard_constraints(&mesh, &ws, &LabelingParams::default());
+        let c = hard_constraints(&mesh, &ws, &LabelingParams::default(), &Cancel::never()).unwrap();
         assert!(c.inside_path > 0);
         assert!(
             c.conflicts > 0,

@@ -18,15 +18,18 @@ use serde::{Deserialize, Serialize};
 
 pub use mesh::{Mesh, MeshError, NONE};
 
+use crate::cancel::{Cancel, Cancelled};
+use crate::params::{within, ParamRange};
 use crate::samples::WallSamples;
 
 /// Parameters of [`label`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LabelingParams {
-    /// Lines of sight needed to force a triangle inside (§3.3: 10).
+    /// Lines of sight needed to force a triangle inside (§3.3: 10). Range 1..=10000.
     pub min_rays: u32,
     /// The central fraction of each pose→sample segment that counts as a line of sight (§3.3: 50%).
+    /// Range 0.01..=1.
     pub ray_fraction: f64,
     /// Beyond the paper: also count the part of each line of sight between the scanner and the
     /// central fraction. That part is open air, and without it the thin triangles radiating
@@ -36,16 +39,17 @@ pub struct LabelingParams {
     /// sample instead of stopping at the central fraction's far end. A quarter of a 7 m ray is
     /// 1.75 m of floor that no ray would vouch for, which lets sparse far corners fall outside;
     /// a fixed margin of a few cells still keeps rays clear of the wall they end on.
-    /// `None` is the paper's central fraction.
+    /// `None` is the paper's central fraction. Range 0..=10.
     pub ray_end_margin: Option<f64>,
     /// Use only pole pairs that share an edge as negative edges (reading (b) of the design note).
     pub adjacent_poles_only: bool,
     /// Node count below which the eigenproblem is solved densely (design note §3 suggests ~3000).
     /// Measured (release, 2 cores): sparse shift-invert takes under 1 ms at 560 triangles where
     /// dense takes 34 ms, and 6 ms at 4.7k where dense takes 7.4 s; so dense only for tiny graphs.
+    /// Range 0..=2000: the dense solve cannot be interrupted, and at 2000 it takes about a second.
     pub dense_below: usize,
     /// Use the harmonic labels when they disagree with the eigenvector's on more than this
-    /// fraction of the inside area (design note §3: 2%).
+    /// fraction of the inside area (design note §3: 2%). Range 0..=1.
     pub max_disagreement: f64,
     /// Solver: `eigen` (the paper's spectral partition) or `harmonic` (the linear-system variant).
     pub solver: Solver,
@@ -58,6 +62,15 @@ pub enum Solver {
     Eigen,
     Harmonic,
 }
+
+/// The accepted values of [`LabelingParams`] (see [`crate::params::ParamRange`]).
+pub const RANGES: &[ParamRange] = &[
+    ParamRange::new("min_rays", 1.0, 10_000.0, ""),
+    ParamRange::new("ray_fraction", 0.01, 1.0, ""),
+    ParamRange::new("ray_end_margin", 0.0, 10.0, "m"),
+    ParamRange::new("dense_below", 0.0, 2000.0, ""),
+    ParamRange::new("max_disagreement", 0.0, 1.0, ""),
+];
 
 impl Default for LabelingParams {
     fn default() -> Self {
@@ -97,6 +110,8 @@ pub enum LabelingError {
     BadParam { name: &'static str, why: String },
     #[error("the eigen-solver failed: {0}")]
     Solver(String),
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
 }
 
 /// Which computation produced the labels.
@@ -172,15 +187,21 @@ pub struct LabelingTimings {
     pub solve_ms: f64,
 }
 
-/// Triangulates the samples and labels every triangle inside or outside.
-pub fn label(samples: &WallSamples, params: &LabelingParams) -> Result<LabeledMesh, LabelingError> {
-    label_with_report(samples, params).map(|(m, _)| m)
+/// Triangulates the samples and labels every triangle inside or outside. Stops with
+/// `Cancelled` once `cancel` says so.
+pub fn label(
+    samples: &WallSamples,
+    params: &LabelingParams,
+    cancel: &Cancel,
+) -> Result<LabeledMesh, LabelingError> {
+    label_with_report(samples, params, cancel).map(|(m, _)| m)
 }
 
 /// [`label`], also returning how it went.
 pub fn label_with_report(
     samples: &WallSamples,
     params: &LabelingParams,
+    cancel: &Cancel,
 ) -> Result<(LabeledMesh, LabelingReport), LabelingError> {
     check_params(params)?;
     let clock = std::time::Instant::now();
@@ -204,15 +225,19 @@ pub fn label_with_report(
         return Err(LabelingError::Collinear(mesh.n_samples));
     }
     timings.mesh_ms = lap();
+    cancel.check()?;
     let graph = weights::build_graph(&mesh, params.adjacent_poles_only);
     timings.graph_ms = lap();
-    let cons = constraints::hard_constraints(&mesh, samples, params);
+    cancel.check()?;
+    let cons = constraints::hard_constraints(&mesh, samples, params, cancel)?;
     timings.constraints_ms = lap();
     let nt = mesh.triangles.len();
     let reduced = spectral::Reduced::new(nt, &graph.edges, &cons.forced);
     let want_eigen = params.solver == Solver::Eigen;
-    let sol =
-        spectral::solve(&reduced, want_eigen, params.dense_below).map_err(LabelingError::Solver)?;
+    let sol = spectral::solve(&reduced, want_eigen, params.dense_below, cancel);
+    // A solve stopped early is not a solver failure.
+    cancel.check()?;
+    let sol = sol.map_err(LabelingError::Solver)?;
     timings.solve_ms = lap();
 
     let harmonic = signs(&reduced, &graph, &sol.harmonic);
@@ -301,33 +326,16 @@ impl LabelingParams {
 }
 
 fn check_params(p: &LabelingParams) -> Result<(), LabelingError> {
-    if !(p.ray_fraction > 0.0 && p.ray_fraction <= 1.0) {
-        return Err(LabelingError::BadParam {
-            name: "ray_fraction",
-            why: format!("{} is not in (0, 1]", p.ray_fraction),
-        });
-    }
+    let check = |name, v: f64| {
+        within(RANGES, name, v).map_err(|(name, why)| LabelingError::BadParam { name, why })
+    };
+    check("min_rays", p.min_rays as f64)?;
+    check("ray_fraction", p.ray_fraction)?;
     if let Some(m) = p.ray_end_margin {
-        if !(m.is_finite() && m >= 0.0) {
-            return Err(LabelingError::BadParam {
-                name: "ray_end_margin",
-                why: format!("{m} is not a distance of 0 m or more"),
-            });
-        }
+        check("ray_end_margin", m)?;
     }
-    if p.min_rays == 0 {
-        return Err(LabelingError::BadParam {
-            name: "min_rays",
-            why: "must be at least 1".into(),
-        });
-    }
-    if p.max_disagreement.is_nan() || p.max_disagreement < 0.0 {
-        return Err(LabelingError::BadParam {
-            name: "max_disagreement",
-            why: format!("{} is not a non-negative fraction", p.max_disagreement),
-        });
-    }
-    Ok(())
+    check("dense_below", p.dense_below as f64)?;
+    check("max_disagreement", p.max_disagreement)
 }
 
 /// True when every point lies on one line (exact test).

@@ -8,6 +8,7 @@
 //! (free + 1)-sized pencil (L̃, D̃). The relaxed labels are the eigenvector of its smallest
 //! eigenvalue; we work with the normalised N = D̃^{-1/2} L̃ D̃^{-1/2} (spectrum in [0, 2]).
 
+use crate::cancel::Cancel;
 use faer::linalg::solvers::Solve;
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Mat, MatMut, Side};
@@ -207,11 +208,18 @@ pub(crate) struct Solution {
 }
 
 /// Solves the reduced system: always the harmonic solution, and the eigenvector when `eigen`.
-pub(crate) fn solve(r: &Reduced, eigen: bool, dense_below: usize) -> Result<Solution, String> {
+/// Once `cancel` says so the Lanczos iterations stop and the solution is not converged; the
+/// caller checks `cancel` afterwards.
+pub(crate) fn solve(
+    r: &Reduced,
+    eigen: bool,
+    dense_below: usize,
+    cancel: &Cancel,
+) -> Result<Solution, String> {
     if r.n() < dense_below.max(2) {
         solve_dense(r, eigen)
     } else {
-        solve_sparse(r, eigen)
+        solve_sparse(r, eigen, cancel)
     }
 }
 
@@ -293,7 +301,7 @@ fn finish_eigen(
     sol.eigen = Some(z);
 }
 
-fn solve_sparse(r: &Reduced, eigen: bool) -> Result<Solution, String> {
+fn solve_sparse(r: &Reduced, eigen: bool, cancel: &Cancel) -> Result<Solution, String> {
     let n = r.n();
     let mut shift = SIGMA;
     let llt = loop {
@@ -330,7 +338,7 @@ fn solve_sparse(r: &Reduced, eigen: bool) -> Result<Solution, String> {
         note: None,
     };
     if eigen {
-        let (z, lambda, solves, converged) = lanczos(r, shift, harmonic, solve);
+        let (z, lambda, solves, converged) = lanczos(r, shift, harmonic, solve, cancel);
         finish_eigen(r, &mut sol, z, lambda, solves, converged);
         if !sol.converged && sol.note.is_none() {
             sol.note = Some(format!(
@@ -353,6 +361,7 @@ fn lanczos(
     shift: f64,
     start: Vec<f64>,
     mut solve: impl FnMut(&mut Vec<f64>),
+    cancel: &Cancel,
 ) -> (Vec<f64>, f64, usize, bool) {
     let mut v = start;
     let mut solves = 1; // the harmonic solve that made the start vector
@@ -377,7 +386,8 @@ fn lanczos(
                 }
             }
             let b = dot(&w, &w).sqrt();
-            let last = j + 1 == BASIS || solves >= MAX_SOLVES;
+            // One sparse solve per step, tens of milliseconds at the largest.
+            let last = j + 1 == BASIS || solves >= MAX_SOLVES || cancel.is_stopped();
             if (j + 1) % 3 == 0 || last || b < 1e-14 {
                 let (theta, s) = ritz(&alpha, &beta);
                 // ‖M⁻¹z − θz‖ = b·|s_m|, so ‖Nz − λz‖ ≤ ‖M‖·b·|s_m|/θ with ‖M‖ ≤ 2 + σ.
@@ -401,7 +411,7 @@ fn lanczos(
             z.iter_mut().zip(qi).for_each(|(x, y)| *x += si * y);
         }
         let lambda = 1.0 / theta - shift;
-        if converged || solves >= MAX_SOLVES {
+        if converged || solves >= MAX_SOLVES || cancel.is_stopped() {
             return (z, lambda, solves, converged);
         }
         v = z;
@@ -493,8 +503,8 @@ pub(crate) mod tests {
         let (edges, forced) = toy();
         let r = Reduced::new(6, &edges, &forced);
         assert_eq!(r.n(), 5);
-        let dense = solve(&r, true, 1000).unwrap();
-        let sparse = solve(&r, true, 0).unwrap();
+        let dense = solve(&r, true, 1000, &Cancel::never()).unwrap();
+        let sparse = solve(&r, true, 0, &Cancel::never()).unwrap();
         assert!(dense.dense && !sparse.dense);
         for s in [&dense, &sparse] {
             let z = s.eigen.as_ref().unwrap();
@@ -550,7 +560,7 @@ pub(crate) mod tests {
         let (edges, forced) = toy();
         let r = Reduced::new(6, &edges, &forced);
         for dense_below in [1000, 0] {
-            let s = solve(&r, false, dense_below).unwrap();
+            let s = solve(&r, false, dense_below, &Cancel::never()).unwrap();
             assert!(s.eigen.is_none());
             let y = r.unnormalize(&s.harmonic);
             assert!(y[r.k] > 0.0);

@@ -13,7 +13,19 @@ use rayon::prelude::*;
 
 use super::cell::Reject;
 use super::SamplesError;
+use crate::cancel::Cancel;
 use crate::stories::Story;
+
+/// Points passed over between cancellation checks in the grid's passes (a fraction of a
+/// millisecond).
+const POINTS_PER_CHECK: usize = 1 << 16;
+
+/// `r` cut into consecutive pieces of at most [`POINTS_PER_CHECK`].
+fn checked_pieces(r: Range<usize>) -> impl Iterator<Item = Range<usize>> {
+    r.clone()
+        .step_by(POINTS_PER_CHECK)
+        .map(move |s| s..(s + POINTS_PER_CHECK).min(r.end))
+}
 
 /// The most cells a story's grid may have (about 200 m × 200 m at 5 cm). Beyond it the cloud
 /// holds far outliers, and the per-cell arrays would waste memory. A cell's index fits in the
@@ -368,7 +380,7 @@ impl Grid {
     /// (see [`super::cell::Tests::bin_code`]). Only the points in `spans` (index ranges, in
     /// order) are looked at; `None` is all. Each cell of `core` is screened by `screen` on its
     /// block's summary, and the points of a cell are kept only when it lies in the 3 × 3 block
-    /// of a candidate.
+    /// of a candidate. Stops with `Cancelled` once `cancel` says so.
     #[allow(clippy::too_many_arguments)]
     pub fn build(
         points: Points<'_>,
@@ -379,6 +391,7 @@ impl Grid {
         carry: Carry,
         bin_code: impl Fn(f32) -> u8 + Sync,
         screen: impl Fn(&Summary) -> Result<(), Reject> + Sync,
+        cancel: &Cancel,
     ) -> Result<Grid, SamplesError> {
         let xyz = points.xyz;
         let range = core.grown(&frame);
@@ -434,8 +447,11 @@ impl Grid {
             .map(|(piece, keys)| {
                 let mut sums = vec![Summary::default(); cells];
                 let mut at = 0;
-                for r in piece {
-                    let pts = &xyz[r.clone()];
+                for r in piece.iter().cloned().flat_map(checked_pieces) {
+                    if cancel.is_stopped() {
+                        break;
+                    }
+                    let pts = &xyz[r];
                     for (slot, p) in keys[at..at + pts.len()].iter_mut().zip(pts) {
                         let Some(c) = key(p) else {
                             *slot = NO_KEY;
@@ -461,6 +477,7 @@ impl Grid {
                 a
             })
             .unwrap_or_else(|| vec![Summary::default(); cells]);
+        cancel.check()?;
 
         // What each core cell's block summary says, a row per task, then which cells' points
         // a candidate's neighbourhood will read.
@@ -535,7 +552,10 @@ impl Grid {
             let mut next: Vec<u32> = start[band.clone()].iter().map(|&v| v - base).collect();
             let (c0, c1) = (band.start as u32, band.end as u32);
             let mut at = 0;
-            for r in &spans {
+            for r in spans.iter().cloned().flat_map(checked_pieces) {
+                if cancel.is_stopped() {
+                    return;
+                }
                 for (k, q) in xyz[r.clone()].iter().enumerate() {
                     let key = keys[at];
                     at += 1;
@@ -556,6 +576,7 @@ impl Grid {
                 }
             }
         });
+        cancel.check()?;
         Ok(Grid {
             frame,
             range,
@@ -680,6 +701,7 @@ mod tests {
             Carry::Slots,
             |z| (z > 0.75) as u8,
             |_| Ok(()),
+            &Cancel::never(),
         )
         .unwrap()
     }

@@ -15,8 +15,10 @@ use std::ops::Range;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::cancel::{Cancel, Cancelled};
 use crate::cloud::{PointCloud, Viewpoints};
 use crate::geom::P2;
+use crate::params::{within, ParamRange};
 use crate::stories::Story;
 use cell::{Reject, Tests};
 pub use grid::{Blocks, CellRange, GridFrame, StoryBounds};
@@ -27,24 +29,25 @@ use views::Views;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SamplesParams {
-    /// Grid cell width d_s, metres (§3.1: "a typical value ... is 5 cm").
+    /// Grid cell width d_s, metres (§3.1: "a typical value ... is 5 cm"). Range 0.01..=0.5.
     pub cell_size: f64,
     /// Minimum points in a cell's neighbourhood (§3.1: "|N_g| >= 50"). `None` derives it from
     /// the measured point density (beyond the paper): an eighth of the median neighbourhood
     /// count of the cells whose heights look like a wall, clamped to 10..=50. The value chosen
-    /// is reported as [`WallSamples::min_points_used`].
+    /// is reported as [`WallSamples::min_points_used`]. Range 1..=100000.
     pub min_points: Option<usize>,
-    /// Minimum vertical support, metres (§3.1: the minimum wall height, ~2 m).
+    /// Minimum vertical support, metres (§3.1: the minimum wall height, ~2 m). Range 0.1..=10.
     pub min_wall_height: f64,
-    /// Bins of the neighbourhood's height histogram (§3.1: 16). At most 32.
+    /// Bins of the neighbourhood's height histogram (§3.1: 16). Range 4..=32.
     pub height_bins: usize,
-    /// Non-empty bins required (§3.1: 12 of 16).
+    /// Non-empty bins required (§3.1: 12 of 16). Range 0..=32, and at most `height_bins`.
     pub min_filled_bins: usize,
-    /// Non-empty bins required among the top 4 (§3.1: 3).
+    /// Non-empty bins required among the top 4 (§3.1: 3). Range 0..=4.
     pub min_top_bins: usize,
-    /// Minimum PCA normal confidence c = 1 - 2λ1/(λ1+λ2) (§3.1: 0.15).
+    /// Minimum PCA normal confidence c = 1 - 2λ1/(λ1+λ2) (§3.1: 0.15). Range 0..=1.
     pub min_confidence: f64,
     /// Samples farther than this from every scanner that saw them are dropped, metres (§3.1: 5-10 m).
+    /// Range 0.1..=1000.
     pub max_range: f64,
     /// Beyond the paper: scale the filled-bin requirements by the fraction of bins that
     /// `n` evenly spread points are expected to fill, 1 - (1 - 1/bins)^n. Sparse walls
@@ -52,6 +55,18 @@ pub struct SamplesParams {
     /// on the requirements are the paper's. `false` applies the paper's test as written.
     pub density_aware_histogram: bool,
 }
+
+/// The accepted values of [`SamplesParams`] (see [`crate::params::ParamRange`]).
+pub const RANGES: &[ParamRange] = &[
+    ParamRange::new("cell_size", 0.01, 0.5, "m"),
+    ParamRange::new("min_points", 1.0, 100_000.0, ""),
+    ParamRange::new("min_wall_height", 0.1, 10.0, "m"),
+    ParamRange::new("height_bins", 4.0, 32.0, ""),
+    ParamRange::new("min_filled_bins", 0.0, 32.0, ""),
+    ParamRange::new("min_top_bins", 0.0, 4.0, ""),
+    ParamRange::new("min_confidence", 0.0, 1.0, ""),
+    ParamRange::new("max_range", 0.1, 1000.0, "m"),
+];
 
 impl Default for SamplesParams {
     fn default() -> Self {
@@ -109,21 +124,32 @@ pub enum SamplesError {
     TooLarge(String),
     #[error("story {level}: no cell passed the wall tests ({why})")]
     NoWalls { level: usize, why: String },
+    #[error(transparent)]
+    Cancelled(#[from] Cancelled),
 }
 
 /// The derived threshold stays within these bounds: below 10 points the height tests mean
 /// little; 50 is the paper's value for dense scans.
 const ADAPTIVE_RANGE: (usize, usize) = (10, 50);
 
-/// Extracts the wall samples of one story.
+/// Extracts the wall samples of one story; stops with `Cancelled` once `cancel` says so.
 pub fn sample_walls(
     cloud: &PointCloud,
     story: &Story,
     params: &SamplesParams,
+    cancel: &Cancel,
 ) -> Result<WallSamples, SamplesError> {
     check_params(params, story)?;
     let frame = StoryBounds::measure(&cloud.xyz, story).frame(story, params.cell_size)?;
-    sample_walls_in(cloud, &cloud.viewpoints, story, params, &frame, None)
+    sample_walls_in(
+        cloud,
+        &cloud.viewpoints,
+        story,
+        params,
+        &frame,
+        None,
+        cancel,
+    )
 }
 
 /// [`sample_walls`] on a grid whose frame is already known (from bounds measured for several
@@ -138,9 +164,19 @@ pub fn sample_walls_in(
     params: &SamplesParams,
     frame: &GridFrame,
     spans: Option<&[Range<usize>]>,
+    cancel: &Cancel,
 ) -> Result<WallSamples, SamplesError> {
     check_params(params, story)?;
-    let scan = scan_cells(cloud, viewpoints, spans, story, params, frame, frame.all())?;
+    let scan = scan_cells(
+        cloud,
+        viewpoints,
+        spans,
+        story,
+        params,
+        frame,
+        frame.all(),
+        cancel,
+    )?;
     finish_samples(cloud, viewpoints, story, params, vec![scan])
 }
 
@@ -162,6 +198,7 @@ pub(crate) fn scan_cells(
     params: &SamplesParams,
     frame: &GridFrame,
     core: CellRange,
+    cancel: &Cancel,
 ) -> Result<CellScan, SamplesError> {
     let mut out = CellScan {
         found: Vec::new(),
@@ -191,6 +228,7 @@ pub(crate) fn scan_cells(
         carry,
         |z| tests.bin_code(z),
         |block| prefilter(&tests, block, min_points),
+        cancel,
     )?;
     let scan = Scan {
         grid: &grid,
@@ -198,6 +236,7 @@ pub(crate) fn scan_cells(
         views: &views,
         min_points,
         core: &core,
+        cancel,
     };
     let rows: Vec<Row> = core
         .j
@@ -205,6 +244,7 @@ pub(crate) fn scan_cells(
         .into_par_iter()
         .map_init(Scratch::default, |s, j| scan.row(j, s))
         .collect();
+    cancel.check()?;
     for row in rows {
         out.tally
             .iter_mut()
@@ -297,49 +337,27 @@ pub(crate) fn check_params(params: &SamplesParams, story: &Story) -> Result<(), 
 }
 
 fn check_values(params: &SamplesParams) -> Result<(), SamplesError> {
-    let bad = |name, why: String| Err(SamplesError::BadParam { name, why });
-    let positive = |v: f64| v.is_finite() && v > 0.0;
-    if !positive(params.cell_size) {
-        return bad(
-            "cell_size",
-            format!("{} is not a positive number", params.cell_size),
-        );
+    let check = |name, v: f64| {
+        within(RANGES, name, v).map_err(|(name, why)| SamplesError::BadParam { name, why })
+    };
+    check("cell_size", params.cell_size)?;
+    if let Some(n) = params.min_points {
+        check("min_points", n as f64)?;
     }
-    if !positive(params.min_wall_height) {
-        return bad(
-            "min_wall_height",
-            format!("{} is not a positive number", params.min_wall_height),
-        );
-    }
-    if params.max_range.is_nan() || params.max_range <= 0.0 {
-        return bad(
-            "max_range",
-            format!("{} is not a positive number", params.max_range),
-        );
-    }
-    if !(4..=32).contains(&params.height_bins) {
-        return bad(
-            "height_bins",
-            format!("{} is not within 4..=32", params.height_bins),
-        );
-    }
+    check("min_wall_height", params.min_wall_height)?;
+    check("height_bins", params.height_bins as f64)?;
+    check("min_filled_bins", params.min_filled_bins as f64)?;
+    check("min_top_bins", params.min_top_bins as f64)?;
+    check("min_confidence", params.min_confidence)?;
+    check("max_range", params.max_range)?;
     if params.min_filled_bins > params.height_bins {
-        return bad(
-            "min_filled_bins",
-            format!("{} exceeds height_bins", params.min_filled_bins),
-        );
-    }
-    if params.min_top_bins > 4 {
-        return bad(
-            "min_top_bins",
-            format!("{} exceeds the 4 top bins", params.min_top_bins),
-        );
-    }
-    if !(0.0..=1.0).contains(&params.min_confidence) {
-        return bad(
-            "min_confidence",
-            format!("{} is not within 0..=1", params.min_confidence),
-        );
+        return Err(SamplesError::BadParam {
+            name: "min_filled_bins",
+            why: format!(
+                "{} exceeds height_bins ({})",
+                params.min_filled_bins, params.height_bins
+            ),
+        });
     }
     Ok(())
 }
@@ -425,7 +443,13 @@ struct Scan<'a> {
     min_points: usize,
     /// The cells to test.
     core: &'a CellRange,
+    /// Checked every [`CELLS_PER_CHECK`] cells; a stopped scan returns what it has, and the
+    /// caller reports the stop.
+    cancel: &'a Cancel,
 }
+
+/// Cells tested between cancellation checks: a few milliseconds at the densest.
+const CELLS_PER_CHECK: usize = 256;
 
 impl Scan<'_> {
     fn row(&self, j: usize, s: &mut Scratch) -> Row {
@@ -435,6 +459,9 @@ impl Scan<'_> {
         };
         let nx = self.grid.frame.nx as u64;
         for i in self.core.i.clone() {
+            if (i - self.core.i.start).is_multiple_of(CELLS_PER_CHECK) && self.cancel.is_stopped() {
+                break;
+            }
             match self.cell(i, j, s) {
                 Ok(None) => {}
                 Ok(Some(f)) => {

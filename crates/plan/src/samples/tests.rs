@@ -1,5 +1,6 @@
 //! Tests of the whole sampling stage on synthetic walls.
 
+use crate::cancel::Cancel;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -70,7 +71,13 @@ fn cloud_of(parts: Vec<(Vec<[f32; 3]>, Vec<u16>)>, poses: &[[f64; 3]]) -> PointC
 fn one_wall_gives_samples_on_its_line_with_the_normal_across_it() {
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     let cloud = cloud_of(vec![wall(&mut rng, 0.0, 0.012, 1000.0, 0)], &[]);
-    let out = sample_walls(&cloud, &story(), &SamplesParams::default()).unwrap();
+    let out = sample_walls(
+        &cloud,
+        &story(),
+        &SamplesParams::default(),
+        &Cancel::never(),
+    )
+    .unwrap();
     // One sample per 5 cm column along the 2 m wall.
     assert!(
         (35..=41).contains(&out.samples.len()),
@@ -97,8 +104,8 @@ fn the_threshold_follows_density_and_an_explicit_value_overrides() {
     let dense = cloud_of(vec![wall(&mut rng, 0.0, 0.012, 1500.0, 0)], &[]);
     let sparse = cloud_of(vec![wall(&mut rng, 0.0, 0.012, 150.0, 0)], &[]);
     let auto = SamplesParams::default();
-    let d = sample_walls(&dense, &story(), &auto).unwrap();
-    let s = sample_walls(&sparse, &story(), &auto).unwrap();
+    let d = sample_walls(&dense, &story(), &auto, &Cancel::never()).unwrap();
+    let s = sample_walls(&sparse, &story(), &auto, &Cancel::never()).unwrap();
     assert!(
         d.min_points_used >= 3 * s.min_points_used.min(20),
         "{} vs {}",
@@ -113,12 +120,12 @@ fn the_threshold_follows_density_and_an_explicit_value_overrides() {
         min_points: Some(50),
         ..auto
     };
-    match sample_walls(&sparse, &story(), &paper) {
+    match sample_walls(&sparse, &story(), &paper, &Cancel::never()) {
         Ok(few) => assert!(few.samples.len() < 10, "{}", few.samples.len()),
         Err(e) => assert!(matches!(e, SamplesError::NoWalls { .. }), "{e}"),
     }
     assert_eq!(
-        sample_walls(&dense, &story(), &paper)
+        sample_walls(&dense, &story(), &paper, &Cancel::never())
             .unwrap()
             .min_points_used,
         50
@@ -133,7 +140,13 @@ fn normals_face_the_scanner_that_saw_them() {
             vec![wall(&mut rng, 0.0, 0.012, 800.0, 0)],
             &[[1.0, pose_y, 1.5]],
         );
-        let out = sample_walls(&cloud, &story(), &SamplesParams::default()).unwrap();
+        let out = sample_walls(
+            &cloud,
+            &story(),
+            &SamplesParams::default(),
+            &Cancel::never(),
+        )
+        .unwrap();
         assert!(out.samples.len() >= 30);
         assert_eq!(out.viewpoints, vec![[1.0, pose_y]]);
         for s in &out.samples {
@@ -151,13 +164,25 @@ fn samples_far_from_every_scanner_that_saw_them_are_dropped() {
     let far = wall(&mut rng, 20.0, 0.012, 800.0, 1);
     // Each wall seen by the scanner in front of it: both kept.
     let cloud = cloud_of(vec![near.clone(), far.clone()], &poses);
-    let out = sample_walls(&cloud, &story(), &SamplesParams::default()).unwrap();
+    let out = sample_walls(
+        &cloud,
+        &story(),
+        &SamplesParams::default(),
+        &Cancel::never(),
+    )
+    .unwrap();
     assert!(out.samples.iter().any(|s| s.pos[0] > 20.0));
     assert!(out.samples.iter().any(|s| s.pos[0] < 2.0));
     // The far wall seen only by the first scanner, 19 m away or more: dropped.
     let far_from_0 = (far.0, vec![0; far.1.len()]);
     let cloud = cloud_of(vec![near, far_from_0], &poses);
-    let out = sample_walls(&cloud, &story(), &SamplesParams::default()).unwrap();
+    let out = sample_walls(
+        &cloud,
+        &story(),
+        &SamplesParams::default(),
+        &Cancel::never(),
+    )
+    .unwrap();
     assert!(out.samples.iter().all(|s| s.pos[0] < 2.1));
     assert!(out.cells_tested > out.samples.len() + 30);
 }
@@ -167,7 +192,7 @@ fn bad_input_gets_errors_not_panics() {
     let p = SamplesParams::default();
     let empty = PointCloud::default();
     assert_eq!(
-        sample_walls(&empty, &story(), &p),
+        sample_walls(&empty, &story(), &p, &Cancel::never()),
         Err(SamplesError::EmptyStory { level: 0 })
     );
     let above = PointCloud {
@@ -175,7 +200,7 @@ fn bad_input_gets_errors_not_panics() {
         ..Default::default()
     };
     assert_eq!(
-        sample_walls(&above, &story(), &p),
+        sample_walls(&above, &story(), &p, &Cancel::never()),
         Err(SamplesError::EmptyStory { level: 0 })
     );
     let nan = PointCloud {
@@ -183,7 +208,7 @@ fn bad_input_gets_errors_not_panics() {
         ..Default::default()
     };
     assert_eq!(
-        sample_walls(&nan, &story(), &p),
+        sample_walls(&nan, &story(), &p, &Cancel::never()),
         Err(SamplesError::NonFinite(1))
     );
     let wide = PointCloud {
@@ -191,7 +216,7 @@ fn bad_input_gets_errors_not_panics() {
         ..Default::default()
     };
     assert!(matches!(
-        sample_walls(&wide, &story(), &p),
+        sample_walls(&wide, &story(), &p, &Cancel::never()),
         Err(SamplesError::TooLarge(_))
     ));
     let zero = SamplesParams {
@@ -199,7 +224,7 @@ fn bad_input_gets_errors_not_panics() {
         ..p.clone()
     };
     assert!(matches!(
-        sample_walls(&above, &story(), &zero),
+        sample_walls(&above, &story(), &zero, &Cancel::never()),
         Err(SamplesError::BadParam {
             name: "cell_size",
             ..
@@ -212,7 +237,7 @@ fn bad_input_gets_errors_not_panics() {
             .collect(),
         ..Default::default()
     };
-    let err = sample_walls(&floor, &story(), &p).unwrap_err();
+    let err = sample_walls(&floor, &story(), &p, &Cancel::never()).unwrap_err();
     assert!(err.to_string().contains("too short"), "{err}");
 }
 
@@ -238,7 +263,13 @@ fn a_mobile_trajectory_orients_normals_and_gives_the_path() {
         ..Default::default()
     };
     cloud.check().unwrap();
-    let out = sample_walls(&cloud, &story(), &SamplesParams::default()).unwrap();
+    let out = sample_walls(
+        &cloud,
+        &story(),
+        &SamplesParams::default(),
+        &Cancel::never(),
+    )
+    .unwrap();
     assert!(out.samples.len() >= 30);
     assert_eq!(out.path.len(), 21);
     // Viewpoints every centimetre along the 2 m path.

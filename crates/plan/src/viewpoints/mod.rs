@@ -21,6 +21,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::cloud::{PointCloud, ScanPose, TrajectorySample, Viewpoints};
+use crate::params::{within, ParamRange};
 
 /// Parameters of [`estimate`].
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -52,23 +53,20 @@ pub enum ViewpointsError {
     BadParam { name: &'static str, why: String },
 }
 
+/// The accepted values of [`ViewpointsParams`] (see [`crate::params::ParamRange`]).
+pub const RANGES: &[ParamRange] = &[
+    ParamRange::new("max_points_per_scan", 1_000.0, 10_000_000.0, ""),
+    ParamRange::new("window_points", 500.0, 1_000_000.0, ""),
+];
+
 impl ViewpointsParams {
     /// Checks every value; the error names the parameter.
     pub fn check(&self) -> Result<(), ViewpointsError> {
-        let bad = |name, why: String| Err(ViewpointsError::BadParam { name, why });
-        if !(1_000..=10_000_000).contains(&self.max_points_per_scan) {
-            return bad(
-                "max_points_per_scan",
-                format!("{} is not within 1000..=10000000", self.max_points_per_scan),
-            );
-        }
-        if !(200..=1_000_000).contains(&self.window_points) {
-            return bad(
-                "window_points",
-                format!("{} is not within 200..=1000000", self.window_points),
-            );
-        }
-        Ok(())
+        let check = |name, v: f64| {
+            within(RANGES, name, v).map_err(|(name, why)| ViewpointsError::BadParam { name, why })
+        };
+        check("max_points_per_scan", self.max_points_per_scan as f64)?;
+        check("window_points", self.window_points as f64)
     }
 }
 
