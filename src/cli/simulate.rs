@@ -8,6 +8,8 @@
 //! - `poses.json` (static) or `trajectory.json` (`--mobile`): the sidecars of
 //!   `shared/design/contract.md` §2, world frame. With `--registration-error` the poses are the
 //!   registered (erroneous) ones, consistent with the points.
+//!   They are written in every `--keep` mode: with `scan-ids` or `plain` the cloud does not
+//!   point to them, and they are the truth to compare estimated viewpoints against.
 //! - `truth.json`: the ground truth as a floor-plan GeoJSON in the contract of §1 (one `story`
 //!   feature per story with `floor_z`, `ceiling_z` and `area_m2`; one `wall` feature per wall
 //!   face, `model` `line` or `arc` with `center` and `radius`; `floorplan.input.format` is
@@ -23,7 +25,7 @@ use std::process::ExitCode;
 use anyhow::{bail, Context};
 use asbuilt_plan::cloud::Viewpoints;
 use asbuilt_plan::io::{geojson, ply, poses};
-use asbuilt_plan::simulate::{simulate, BuildingKind, ScanOptions, Truth, TruthWall};
+use asbuilt_plan::simulate::{simulate, BuildingKind, Keep, ScanOptions, Truth, TruthWall};
 use serde_json::json;
 
 #[derive(clap::Args)]
@@ -56,6 +58,11 @@ pub struct SimulateArgs {
     /// Write the cloud as ASCII PLY instead of binary.
     #[arg(long)]
     pub ascii: bool,
+    /// What the cloud keeps of how it was scanned: `poses` (scan ids or times; the sidecar
+    /// fits them), `scan-ids` (the same cloud, meant to be planned without the sidecar) or
+    /// `plain` (x, y, z only, shuffled).
+    #[arg(long, value_name = "MODE", default_value = "poses")]
+    pub keep: String,
     /// The folder to write into (created if missing).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
@@ -81,6 +88,14 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
         Some(text) => numbers::<3>(text, "--offset")?,
         None => [0.0; 3],
     };
+    let keep = Keep::from_name(&args.keep).with_context(|| {
+        let names: Vec<&str> = Keep::ALL.iter().map(|(n, _)| *n).collect();
+        format!(
+            "unknown --keep `{}`; choose one of {}",
+            args.keep,
+            names.join(", ")
+        )
+    })?;
     let options = ScanOptions {
         points: args.points,
         seed: args.seed,
@@ -89,6 +104,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
         mobile: args.mobile,
         offset,
         voxel: args.voxel,
+        keep,
     };
     let sim = simulate(kind, &options)?;
     std::fs::create_dir_all(&args.out)
@@ -100,7 +116,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
     };
     let cloud_path = args.out.join("cloud.ply");
     ply::write_ply(&cloud_path, &sim.cloud, encoding)?;
-    let sidecar = match &sim.cloud.viewpoints {
+    let sidecar = match &sim.scanners {
         Viewpoints::Static(p) => {
             let path = args.out.join("poses.json");
             poses::write_poses(&path, p, sim.cloud.origin)?;
@@ -121,7 +137,7 @@ pub fn run(args: SimulateArgs) -> anyhow::Result<ExitCode> {
         kind.name(),
         sim.cloud.len(),
         sim.truth.stories.len(),
-        match &sim.cloud.viewpoints {
+        match &sim.scanners {
             Viewpoints::Static(p) => format!("{} static scans", p.len()),
             Viewpoints::Trajectory(s) =>
                 format!("a {} s trajectory", s.last().map_or(0.0, |s| s.t)),

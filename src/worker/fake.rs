@@ -74,6 +74,7 @@ pub fn square_plan(points: u64) -> FloorPlan {
             points,
             format: "xyz".into(),
             scans: 0,
+            ..Default::default()
         },
         parameters: asbuilt_plan::Params::default().to_json(),
         timings_ms: vec![],

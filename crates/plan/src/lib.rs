@@ -12,6 +12,7 @@
 //!   number's accepted range.
 //! - [`cancel::Cancel`] stops a run from outside (a flag, a deadline): every long loop checks it.
 //! - [`cloud::PointCloud`] is the input, [`plan::FloorPlan`] the output.
+//! - [`viewpoints`] estimates scanner positions the input does not give.
 //! - [`io`] reads clouds and pose sidecars and writes GeoJSON, SVG and DXF.
 //! - [`simulate`] builds and scans synthetic buildings with exact ground truth; [`evaluate`] scores plans.
 
@@ -34,6 +35,7 @@ pub mod smoothing;
 pub mod stories;
 pub mod streaming;
 pub mod validity;
+pub mod viewpoints;
 
 pub use cancel::{Cancel, Cancelled};
 pub use cloud::PointCloud;

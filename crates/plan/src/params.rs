@@ -8,6 +8,7 @@ use crate::labeling::LabelingParams;
 use crate::samples::SamplesParams;
 use crate::smoothing::SmoothingParams;
 use crate::stories::StoriesParams;
+use crate::viewpoints::ViewpointsParams;
 
 /// The parameters of a whole run; each field is one stage's parameter struct.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -19,6 +20,8 @@ pub struct Params {
     pub labeling: LabelingParams,
     pub cleanup: CleanupParams,
     pub fitting: FittingParams,
+    /// Scanner positions when the input gives none (beyond the paper).
+    pub viewpoints: ViewpointsParams,
     /// Include each story's wall samples as a `wall_samples` feature.
     pub emit_samples: bool,
 }
@@ -81,13 +84,14 @@ pub(crate) fn within(
 
 /// Every stage's ranges, with the section each belongs to: for documents and tests.
 pub fn ranges() -> Vec<(&'static str, ParamRange)> {
-    let sections: [(&'static str, &[ParamRange]); 6] = [
+    let sections: [(&'static str, &[ParamRange]); 7] = [
         ("stories", crate::stories::RANGES),
         ("samples", crate::samples::RANGES),
         ("smoothing", crate::smoothing::RANGES),
         ("labeling", crate::labeling::RANGES),
         ("cleanup", crate::cleanup::RANGES),
         ("fitting", crate::fitting::RANGES),
+        ("viewpoints", crate::viewpoints::RANGES),
     ];
     sections
         .into_iter()
@@ -206,6 +210,11 @@ impl Params {
         }
         if let Err(FittingError::BadParam { name, why }) = self.fitting.check() {
             return Err(named("fitting", name, why));
+        }
+        if let Err(crate::viewpoints::ViewpointsError::BadParam { name, why }) =
+            self.viewpoints.check()
+        {
+            return Err(named("viewpoints", name, why));
         }
         Ok(())
     }

@@ -17,6 +17,7 @@ use crate::samples::{
 use crate::smoothing::{smooth_samples, SmoothingError};
 use crate::stories::{split_cloud_stories, StoriesError, Story};
 use crate::validity::{make_valid, Grid};
+use crate::viewpoints::{self, ViewpointsReport};
 
 /// Why a plan could not be made. Each variant names the stage.
 #[derive(Debug, thiserror::Error)]
@@ -87,6 +88,8 @@ impl PlanError {
 pub const TRIANGULATE: &str = "triangulate";
 /// The `timings_ms` key of the last step: every polygon made OGC-valid on the output grid.
 pub const VALIDITY: &str = "validity";
+/// The `timings_ms` key of estimating scanner positions the input does not give.
+pub const VIEWPOINTS: &str = "viewpoints";
 
 /// Accumulates per-stage wall time in pipeline order.
 #[derive(Default)]
@@ -135,6 +138,12 @@ pub fn plan(
     let spacing = timings.time(Stage::Samples, || SpacingProbe::of(&cloud.xyz).spacing());
     let (params, reported) = params.derive(spacing);
     let params = &params;
+    let clock = Instant::now();
+    let estimate = viewpoints::estimate(cloud, &params.viewpoints);
+    timings.add(VIEWPOINTS, clock.elapsed().as_secs_f64() * 1e3);
+    cancel.check()?;
+    // Estimated viewpoints are used exactly as given ones.
+    let seen_from = estimate.viewpoints.as_ref().unwrap_or(&cloud.viewpoints);
     // Splitting the stories and measuring their bounds are a few linear passes over the
     // points: checked between them, not inside.
     let stories = timings.time(Stage::Stories, || {
@@ -150,9 +159,18 @@ pub fn plan(
         let p = &params.samples;
         check_params(p, story)?;
         let frame = bounds[story.level].frame(story, p.cell_size)?;
-        sample_walls_in(cloud, story, p, &frame, Some(&blocks.spans(story)), cancel)
+        sample_walls_in(
+            cloud,
+            seen_from,
+            story,
+            p,
+            &frame,
+            Some(&blocks.spans(story)),
+            cancel,
+        )
     };
-    let summary = CloudSummary::of(cloud, cloud.len() as u64);
+    let mut summary = CloudSummary::of(cloud, cloud.len() as u64);
+    summary.viewpoints = estimate.report;
     plan_stories(
         &summary,
         &stories,
@@ -170,11 +188,17 @@ pub(crate) struct CloudSummary<'a> {
     pub cloud: &'a PointCloud,
     /// Points read (the cloud itself may hold none of them).
     pub points: u64,
+    /// The viewpoints planned with: given or estimated.
+    pub viewpoints: ViewpointsReport,
 }
 
 impl<'a> CloudSummary<'a> {
     pub fn of(cloud: &'a PointCloud, points: u64) -> Self {
-        CloudSummary { cloud, points }
+        CloudSummary {
+            cloud,
+            points,
+            viewpoints: ViewpointsReport::default(),
+        }
     }
 }
 
@@ -199,6 +223,8 @@ pub(crate) fn plan_stories(
     let mut plans = Vec::new();
     let mut min_points_used = Vec::new();
     let mut failures = Vec::new();
+    // Open area in all, and the part viewpoint evidence forced inside.
+    let mut evidence = (0.0, 0.0);
     for (i, story) in stories.iter().enumerate() {
         let at = |k: f64| (i as f64 + k) / stories.len() as f64;
         // What was assumed about the floor or ceiling goes with the story's plan or failure.
@@ -216,7 +242,14 @@ pub(crate) fn plan_stories(
         )
         .map_err(PlanError::lift)
         {
-            Ok((story_plan, used, story_notes)) => {
+            Ok(StoryOutcome {
+                plan: story_plan,
+                min_points_used: used,
+                notes: story_notes,
+                forced,
+            }) => {
+                evidence.0 += forced.0;
+                evidence.1 += forced.1;
                 min_points_used.push(used);
                 notes.extend(
                     assumed
@@ -249,6 +282,9 @@ pub(crate) fn plan_stories(
     }
     timings.add("total", start.elapsed().as_secs_f64() * 1e3);
     progress.report(Stage::Write, 1.0);
+    let mut viewpoints = input.viewpoints.clone();
+    viewpoints.rests_on = (evidence.1 > 0.0).then(|| evidence.0 / evidence.1);
+    notes.extend(viewpoints::describe(&viewpoints));
     Ok(FloorPlan {
         origin: cloud.origin,
         crs: cloud.crs.clone(),
@@ -257,8 +293,9 @@ pub(crate) fn plan_stories(
             format: cloud.source.format.clone(),
             scans: match &cloud.viewpoints {
                 crate::cloud::Viewpoints::Static(p) => p.len(),
-                _ => 0,
+                _ => viewpoints.scans.len(),
             },
+            viewpoints,
         },
         parameters,
         timings_ms: timings.into_ms(),
@@ -276,7 +313,7 @@ fn plan_story(
     timings: &mut Timings,
     at: impl Fn(f64) -> f64,
     sample: &mut dyn FnMut(&Story, &Cancel) -> Result<WallSamples, SamplesError>,
-) -> Result<(StoryPlan, usize, Vec<String>), PlanError> {
+) -> Result<StoryOutcome, PlanError> {
     let mut step = |stage: Stage, k: f64| {
         progress.report(stage, at(k));
         cancel.check()
@@ -307,6 +344,7 @@ fn plan_story(
     timings.time(Stage::Cleanup, || {
         clean_labels(&mut labeled, &params.cleanup)
     });
+    let forced = forced_area(&labeled);
     let boundary = timings.time(Stage::Cleanup, || trace_boundary(&labeled))?;
     step(Stage::Fitting, 0.9)?;
     let fitted = timings.time(Stage::Fitting, || {
@@ -326,5 +364,34 @@ fn plan_story(
         walls: fitted.walls,
         samples: samples.samples.iter().map(|s| s.pos).collect(),
     };
-    Ok((plan, samples.min_points_used, notes))
+    Ok(StoryOutcome {
+        plan,
+        min_points_used: samples.min_points_used,
+        notes,
+        forced,
+    })
+}
+
+/// One story's plan and what the run reports of it.
+struct StoryOutcome {
+    plan: StoryPlan,
+    min_points_used: usize,
+    notes: Vec<String>,
+    /// The inside area that evidence forced inside, and the inside area, m².
+    forced: (f64, f64),
+}
+
+/// The inside area that evidence forced inside, and the inside area, m².
+fn forced_area(labeled: &crate::labeling::LabeledMesh) -> (f64, f64) {
+    let mut out = (0.0, 0.0);
+    for t in 0..labeled.mesh.triangles.len() {
+        if labeled.inside[t] {
+            let a = labeled.mesh.area(t).abs();
+            out.1 += a;
+            if labeled.forced[t] == Some(true) {
+                out.0 += a;
+            }
+        }
+    }
+    out
 }

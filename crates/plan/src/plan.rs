@@ -75,6 +75,9 @@ pub struct InputSummary {
     pub points: u64,
     pub format: String,
     pub scans: usize,
+    /// Where the scanner stood: given or estimated, per scan, and how much of the plan rests
+    /// on it.
+    pub viewpoints: crate::viewpoints::ViewpointsReport,
 }
 
 /// A whole floor plan: every story, and how it was made.

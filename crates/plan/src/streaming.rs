@@ -235,7 +235,16 @@ pub fn plan_file(
                 continue;
             };
             let core = tiling.core(t, frame);
-            match scan_cells(&cloud, None, story, &params.samples, frame, core, &cancel) {
+            match scan_cells(
+                &cloud,
+                &skeleton.viewpoints,
+                None,
+                story,
+                &params.samples,
+                frame,
+                core,
+                &cancel,
+            ) {
                 Ok(scan) => list.push(scan),
                 Err(SamplesError::Cancelled(c)) => return Err(PlanError::Cancelled(c).into()),
                 Err(e) => *entry = Err(e),
@@ -246,9 +255,15 @@ pub fn plan_file(
         .into_iter()
         .zip(&stories)
         .map(|(entry, story)| {
-            Some(
-                entry.and_then(|(_, list)| finish_samples(&skeleton, story, &params.samples, list)),
-            )
+            Some(entry.and_then(|(_, list)| {
+                finish_samples(
+                    &skeleton,
+                    &skeleton.viewpoints,
+                    story,
+                    &params.samples,
+                    list,
+                )
+            }))
         })
         .collect();
     timings.add(Stage::Samples.name(), ms(clock));

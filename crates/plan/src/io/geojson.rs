@@ -42,6 +42,7 @@ pub fn to_geojson(plan: &FloorPlan) -> Value {
                 "points": plan.input.points,
                 "format": plan.input.format,
                 "scans": plan.input.scans,
+                "viewpoints": viewpoints(plan),
             },
             "parameters": plan.parameters,
             "timings_ms": timings,
@@ -64,6 +65,57 @@ pub(crate) fn emit_samples(plan: &FloorPlan) -> bool {
         .get("emit_samples")
         .and_then(Value::as_bool)
         .unwrap_or(false)
+}
+
+/// `floorplan.input.viewpoints`: where the scanners stood (given or estimated, world frame),
+/// per scan with its residual, and how much of the plan rests on them.
+fn viewpoints(plan: &FloorPlan) -> Value {
+    let v = &plan.input.viewpoints;
+    let o = plan.origin;
+    let world = |p: [f64; 3]| [0, 1, 2].map(|k| round4(p[k] + o[k]));
+    let scans: Vec<Value> = v
+        .scans
+        .iter()
+        .map(|s| {
+            json!({
+                "index": s.index,
+                "source": if s.estimated { "estimated" } else { "given" },
+                "position": s.position.map(world),
+                "residual_m": s.residual.map(round4),
+                "support": s.support.map(round4),
+                "points": s.points,
+            })
+        })
+        .collect();
+    let path = v.path.as_ref().map(|p| {
+        json!({
+            "source": if p.estimated { "estimated" } else { "given" },
+            "samples": p.samples,
+            "windows": p.windows,
+            "located": p.located,
+            "residual_m": p.residual.map(round4),
+            "length_m": p.length.map(round4),
+        })
+    });
+    let open_space: Vec<Value> = v
+        .open_space
+        .iter()
+        .map(|s| {
+            json!({
+                "level": s.level,
+                "positions": s.viewpoints.iter().map(|p| position(plan, *p)).collect::<Vec<_>>(),
+                "samples_seen": s.samples_seen,
+                "samples": s.samples,
+            })
+        })
+        .collect();
+    json!({
+        "source": v.source,
+        "scans": scans,
+        "path": path,
+        "open_space": open_space,
+        "rests_on": v.rests_on.map(round4),
+    })
 }
 
 /// Rounds to 0.1 mm: finer than any scanner, coarse enough to keep files small.
@@ -235,6 +287,7 @@ pub(crate) mod tests {
                 points: 1234,
                 format: "ply".into(),
                 scans: 2,
+                ..Default::default()
             },
             parameters: json!({"emit_samples": false, "samples": {"cell_size": 0.05}}),
             timings_ms: vec![
@@ -330,6 +383,57 @@ pub(crate) mod tests {
         assert!(walls[0]["properties"].get("radius").is_none());
         // Samples are off in these parameters.
         assert!(kinds(&doc, "wall_samples").is_empty());
+    }
+
+    #[test]
+    fn viewpoints_are_reported_in_the_world_frame() {
+        use crate::viewpoints::{ScanViewpoint, ViewpointSource, ViewpointsReport};
+        let mut p = plan([1000.0, 2000.0, 10.0], vec![]);
+        p.input.viewpoints = ViewpointsReport {
+            source: ViewpointSource::Mixed,
+            scans: vec![
+                ScanViewpoint {
+                    index: 3,
+                    estimated: false,
+                    position: Some([1.0, 2.0, 1.5]),
+                    residual: None,
+                    support: None,
+                    points: 10,
+                },
+                ScanViewpoint {
+                    index: 4,
+                    estimated: true,
+                    position: Some([5.0, 2.0, 1.5]),
+                    residual: Some(0.012),
+                    support: Some(0.75),
+                    points: 20,
+                },
+                ScanViewpoint {
+                    index: 5,
+                    estimated: true,
+                    position: None,
+                    residual: None,
+                    support: None,
+                    points: 30,
+                },
+            ],
+            rests_on: Some(0.8),
+            ..Default::default()
+        };
+        let doc = reparse(&p);
+        let v = &doc["floorplan"]["input"]["viewpoints"];
+        assert_eq!(v["source"], "mixed");
+        assert_eq!(v["rests_on"], 0.8);
+        assert_eq!(v["path"], Value::Null);
+        let scans = v["scans"].as_array().unwrap();
+        assert_eq!(scans.len(), 3);
+        assert_eq!(scans[0]["source"], "given");
+        assert_eq!(scans[0]["position"], json!([1001.0, 2002.0, 11.5]));
+        assert_eq!(scans[1]["source"], "estimated");
+        assert_eq!(scans[1]["residual_m"], 0.012);
+        assert_eq!(scans[1]["support"], 0.75);
+        assert_eq!(scans[2]["position"], Value::Null);
+        assert_eq!(scans[2]["points"], 30);
     }
 
     #[test]

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::cancel::{Cancel, Cancelled};
-use crate::cloud::PointCloud;
+use crate::cloud::{PointCloud, Viewpoints};
 use crate::geom::P2;
 use crate::params::{within, ParamRange};
 use crate::stories::Story;
@@ -148,15 +148,25 @@ pub fn sample_walls(
 ) -> Result<WallSamples, SamplesError> {
     check_params(params, story)?;
     let frame = StoryBounds::measure(&cloud.xyz, story).frame(story, params.cell_size)?;
-    sample_walls_in(cloud, story, params, &frame, None, cancel)
+    sample_walls_in(
+        cloud,
+        &cloud.viewpoints,
+        story,
+        params,
+        &frame,
+        None,
+        cancel,
+    )
 }
 
 /// [`sample_walls`] on a grid whose frame is already known (from bounds measured for several
 /// stories at once, say).
 /// Only the points in `spans` (index ranges, in order; `None` for all) are looked at: the
-/// story's points must all lie in them.
+/// story's points must all lie in them. The scanners are `viewpoints` (the cloud's own, or
+/// estimated ones).
 pub fn sample_walls_in(
     cloud: &PointCloud,
+    viewpoints: &Viewpoints,
     story: &Story,
     params: &SamplesParams,
     frame: &GridFrame,
@@ -164,8 +174,17 @@ pub fn sample_walls_in(
     cancel: &Cancel,
 ) -> Result<WallSamples, SamplesError> {
     check_params(params, story)?;
-    let scan = scan_cells(cloud, spans, story, params, frame, frame.all(), cancel)?;
-    finish_samples(cloud, story, params, vec![scan])
+    let scan = scan_cells(
+        cloud,
+        viewpoints,
+        spans,
+        story,
+        params,
+        frame,
+        frame.all(),
+        cancel,
+    )?;
+    finish_samples(cloud, viewpoints, story, params, vec![scan])
 }
 
 /// The wall-like cells of one range of a story's grid, with the rejections by reason: the part
@@ -180,6 +199,7 @@ pub(crate) struct CellScan {
 /// Tests the cells of `core` (a range of `frame`'s cells) on the points of `cloud`.
 pub(crate) fn scan_cells(
     cloud: &PointCloud,
+    viewpoints: &Viewpoints,
     spans: Option<&[Range<usize>]>,
     story: &Story,
     params: &SamplesParams,
@@ -195,7 +215,7 @@ pub(crate) fn scan_cells(
         return Ok(out);
     }
     let tests = Tests::new(story, params);
-    let views = Views::new(cloud, story);
+    let views = Views::new(cloud, viewpoints, story);
     let points = Points {
         xyz: &cloud.xyz,
         scan: &cloud.scan,
@@ -247,11 +267,12 @@ pub(crate) fn scan_cells(
 /// are not read).
 pub(crate) fn finish_samples(
     cloud: &PointCloud,
+    viewpoints: &Viewpoints,
     story: &Story,
     params: &SamplesParams,
     scans: Vec<CellScan>,
 ) -> Result<WallSamples, SamplesError> {
-    let views = Views::new(cloud, story);
+    let views = Views::new(cloud, viewpoints, story);
     let mut tally = [0usize; 6];
     let mut found = Vec::with_capacity(scans.iter().map(|s| s.found.len()).sum());
     let several = scans.len() > 1;

@@ -60,19 +60,21 @@ pub(super) struct Seen {
 }
 
 impl<'a> Views<'a> {
-    pub fn new(cloud: &'a PointCloud, story: &Story) -> Views<'a> {
+    /// The `viewpoints` (the cloud's own, or estimated) of `cloud`'s scans in `story`.
+    pub fn new(cloud: &'a PointCloud, viewpoints: &Viewpoints, story: &Story) -> Views<'a> {
         let in_story = |p: &[f64; 3]| story.holds_viewpoint(p[2]);
         // Heights are taken as unknown only when no scanner stands anywhere near the story.
         let reach = story.top_z - story.floor_z;
         let near = |p: &[f64; 3]| p[2] >= story.z_min - reach && p[2] < story.z_max + reach;
-        match &cloud.viewpoints {
+        match viewpoints {
             Viewpoints::Static(poses) if !poses.is_empty() => {
                 let any_inside = poses.iter().any(|p| near(&p.position));
                 let mut viewpoints = Vec::new();
                 let listed = poses
                     .iter()
                     .map(|p| {
-                        (!any_inside || in_story(&p.position)).then(|| {
+                        let known = p.position.iter().all(|c| c.is_finite());
+                        (known && (!any_inside || in_story(&p.position))).then(|| {
                             viewpoints.push([p.position[0], p.position[1]]);
                             viewpoints.len() as u32 - 1
                         })
@@ -210,7 +212,11 @@ impl<'a> Views<'a> {
         let Kind::Static { poses, listed, .. } = &self.kind else {
             return None;
         };
-        Some((*poses.get(slot)?, *listed.get(slot)?))
+        // A scan whose position could not be estimated is non-finite: it saw nothing.
+        let p = poses
+            .get(slot)
+            .filter(|p| p[0].is_finite() && p[1].is_finite())?;
+        Some((*p, *listed.get(slot)?))
     }
 }
 
@@ -371,7 +377,7 @@ mod tests {
             ]),
             ..Default::default()
         };
-        let views = Views::new(&cloud, &story());
+        let views = Views::new(&cloud, &cloud.viewpoints, &story());
         assert_eq!(views.viewpoints, vec![[0.0, -2.0]]);
         // Points 0 and 1 come from the listed scan, 2 and 3 from the upper one: a tie of
         // votes (the normal faces both), broken by the nearer scanner at y = -2.
@@ -427,7 +433,7 @@ mod tests {
             viewpoints: Viewpoints::Trajectory(traj),
             ..Default::default()
         };
-        let views = Views::new(&cloud, &story());
+        let views = Views::new(&cloud, &cloud.viewpoints, &story());
         assert_eq!(views.path.len(), 11);
         // Every centimetre along the 1 m path, interpolated between the samples.
         assert_eq!(views.viewpoints.len(), 101, "{:?}", views.viewpoints.len());
@@ -451,7 +457,7 @@ mod tests {
             xyz: vec![[0.0, 0.0, 1.0]],
             ..Default::default()
         };
-        let views = Views::new(&cloud, &story());
+        let views = Views::new(&cloud, &cloud.viewpoints, &story());
         assert_eq!(views.carry(), Carry::Nothing);
         let seen = views.observe(&[], &[], 1, [0.0, 0.0], [0.0, 1.0]);
         assert_eq!(seen.normal, [0.0, 1.0]);

@@ -64,6 +64,35 @@ pub struct ScanOptions {
     /// occupancy map or a downsampling tool does (each keeps its first point's scan and time).
     /// `None` keeps every point, unless the building is a voxelised class.
     pub voxel: Option<f64>,
+    /// What the cloud keeps of how it was scanned.
+    pub keep: Keep,
+}
+
+/// What a simulated cloud keeps of how it was scanned (the scanners stay in
+/// [`Simulation::scanners`] either way).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Keep {
+    /// Scan ids with their poses, or times with the trajectory.
+    #[default]
+    Poses,
+    /// Scan ids or times, no poses or trajectory: a merged export.
+    ScanIds,
+    /// Plain x, y, z in shuffled order: no ids, no times, no order to find scans by.
+    Plain,
+}
+
+impl Keep {
+    /// Every mode, by its command-line name.
+    pub const ALL: [(&'static str, Keep); 3] = [
+        ("poses", Keep::Poses),
+        ("scan-ids", Keep::ScanIds),
+        ("plain", Keep::Plain),
+    ];
+
+    /// Looks a mode up by name.
+    pub fn from_name(name: &str) -> Option<Keep> {
+        Keep::ALL.iter().find(|(n, _)| *n == name).map(|(_, k)| *k)
+    }
 }
 
 impl Default for ScanOptions {
@@ -76,6 +105,7 @@ impl Default for ScanOptions {
             mobile: false,
             offset: [0.0; 3],
             voxel: None,
+            keep: Keep::Poses,
         }
     }
 }
@@ -93,6 +123,9 @@ pub enum SimulateError {
 pub struct Simulation {
     pub cloud: PointCloud,
     pub truth: Truth,
+    /// Where the scanners really were (poses or trajectory, local frame), whatever the cloud
+    /// keeps.
+    pub scanners: Viewpoints,
 }
 
 /// Builds `kind` and scans it.
@@ -134,7 +167,32 @@ pub fn scan(building: &Building, options: &ScanOptions) -> Result<Simulation, Si
         origin: options.offset,
         stories: building.stories.iter().map(|s| s.truth.clone()).collect(),
     };
-    Ok(Simulation { cloud, truth })
+    let scanners = cloud.viewpoints.clone();
+    match options.keep {
+        Keep::Poses => {}
+        Keep::ScanIds => cloud.viewpoints = Viewpoints::None,
+        Keep::Plain => {
+            cloud.viewpoints = Viewpoints::None;
+            cloud.scan = Vec::new();
+            cloud.scan_ids = Vec::new();
+            cloud.time = Vec::new();
+            shuffle(&mut cloud.xyz, options.seed);
+        }
+    }
+    Ok(Simulation {
+        cloud,
+        truth,
+        scanners,
+    })
+}
+
+/// Shuffles the points (Fisher-Yates, seeded), so their order tells nothing of the scans.
+fn shuffle(xyz: &mut [[f32; 3]], seed: u64) {
+    let mut rng = scanner::block_rng(seed, u64::MAX - 1);
+    for i in (1..xyz.len()).rev() {
+        let j = rng.random_range(0..=i);
+        xyz.swap(i, j);
+    }
 }
 
 fn check(o: &ScanOptions) -> Result<(), SimulateError> {
@@ -512,6 +570,42 @@ mod tests {
         let low = rooms::CEILING_CAPTURE_ABOVE as f32;
         assert!(sim.cloud.xyz.iter().all(|p| p[2] >= low));
         assert!(sim.cloud.len() > 5_000);
+    fn kept_modes_strip_what_they_should() {
+        let opts = |keep| ScanOptions {
+            points: 20_000,
+            keep,
+            ..Default::default()
+        };
+        let full = simulate(BuildingKind::RotatedL, &opts(Keep::Poses)).unwrap();
+        let ids = simulate(BuildingKind::RotatedL, &opts(Keep::ScanIds)).unwrap();
+        let plain = simulate(BuildingKind::RotatedL, &opts(Keep::Plain)).unwrap();
+        assert!(matches!(full.cloud.viewpoints, Viewpoints::Static(_)));
+        assert_eq!(full.scanners, full.cloud.viewpoints);
+        assert_eq!(ids.cloud.viewpoints, Viewpoints::None);
+        assert_eq!(ids.cloud.scan, full.cloud.scan);
+        assert_eq!(ids.scanners, full.scanners);
+        assert!(plain.cloud.scan.is_empty() && plain.cloud.scan_ids.is_empty());
+        plain.cloud.check().unwrap();
+        // The same points in another order.
+        assert_ne!(plain.cloud.xyz, full.cloud.xyz);
+        let key = |p: &[f32; 3]| p.map(f32::to_bits);
+        let mut a: Vec<_> = plain.cloud.xyz.iter().map(key).collect();
+        let mut b: Vec<_> = full.cloud.xyz.iter().map(key).collect();
+        a.sort_unstable();
+        b.sort_unstable();
+        assert_eq!(a, b);
+        let mobile = simulate(
+            BuildingKind::SquareRoom,
+            &ScanOptions {
+                mobile: true,
+                ..opts(Keep::ScanIds)
+            },
+        )
+        .unwrap();
+        assert_eq!(mobile.cloud.viewpoints, Viewpoints::None);
+        assert_eq!(mobile.cloud.time.len(), mobile.cloud.len());
+        assert!(matches!(mobile.scanners, Viewpoints::Trajectory(_)));
+        assert_eq!(Keep::from_name("scan-ids"), Some(Keep::ScanIds));
     }
 
     #[test]

@@ -139,6 +139,7 @@ impl Truth {
                 points: 0,
                 format: "truth".into(),
                 scans: 0,
+                ..Default::default()
             },
             parameters: serde_json::json!({"building": self.building}),
             timings_ms: Vec::new(),

@@ -1,0 +1,554 @@
+//! Where a static scanner stood, from its own points: the blind cone under the tripod.
+//!
+//! A terrestrial scanner does not measure below some elevation (−45° to −70°), so each scan
+//! leaves a round hole in its floor: the points of lowest elevation, one per azimuth sector,
+//! all lie on one downward cone whose apex is the scanner. Seen from the apex, every sector's
+//! lowest point has the same elevation; seen from anywhere else, they do not.
+//!
+//! 1. Candidates: the low points (the bottom quarter of the scan's heights) are rasterised;
+//!    the maxima of the distance to the nearest low point are the centres of empty places.
+//!    From each, rays in every direction stop at the first low point; a circle fits those stops
+//!    well only around the blind spot (an empty place in a sparse far room or a shadow behind
+//!    furniture has a ragged edge).
+//! 2. The best few circles seed a robust Gauss-Newton fit of the cone
+//!    `z = apex_z − slope · |xy − apex_xy|` to the lowest point of each sector (the apex height
+//!    fixed half way up the scan), the sectors re-chosen around the new apex at every step. The apex with most sectors on its cone wins.
+
+use nalgebra::{Matrix6, Vector6};
+
+use super::raster::Raster;
+use crate::geom::P2;
+
+/// Parameters of the blind-cone search (the defaults suit tripod scanners indoors).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct ConeParams {
+    /// Azimuth sectors around a candidate apex.
+    pub sectors: usize,
+    /// Raster cell for the low points, metres.
+    pub cell: f64,
+    /// The blind spot's radius in the low points lies within this range, metres.
+    pub radius: (f64, f64),
+    /// Candidate circles whose cone is fitted.
+    pub seeds: usize,
+    /// A sector's lowest point is on the cone when this close to it (vertically), metres.
+    pub tolerance: f64,
+    /// Points farther than this from the apex are not looked at, metres.
+    pub reach: f64,
+}
+
+impl Default for ConeParams {
+    fn default() -> Self {
+        ConeParams {
+            sectors: 72,
+            cell: 0.1,
+            radius: (0.3, 4.0),
+            seeds: 4,
+            tolerance: 0.05,
+            reach: 10.0,
+        }
+    }
+}
+
+/// A fitted blind cone.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Cone {
+    /// The scanner: the cone's apex, local frame (for a moving scanner, at the window's
+    /// reference time).
+    pub apex: [f64; 3],
+    /// A moving scanner's horizontal velocity, m per time unit; zero for a static scan.
+    pub velocity: [f64; 2],
+    /// tan of the lowest elevation's depression.
+    pub slope: f64,
+    /// Sectors whose lowest point lies on the cone, of `sectors`.
+    pub support: usize,
+    /// Root mean square horizontal distance of those points from the cone, metres.
+    pub residual: f64,
+}
+
+/// The slope stays within these bounds: lowest elevations of −11° to −79°.
+const SLOPE: (f64, f64) = (0.2, 5.0);
+/// Below this many points a scan is not located.
+pub(crate) const MIN_POINTS: usize = 200;
+/// Fewer supporting sectors than this fraction is no blind cone.
+const MIN_SUPPORT: f64 = 0.2;
+/// A moving scanner's blind spot is sought among this share of a window's points, those
+/// nearest its reference time.
+const SEED_SHARE: usize = 8;
+/// Rasters stay below this many cells.
+const MAX_CELLS: usize = 1 << 21;
+
+/// Locates the scanner of `points` (one static scan, local frame). `None` when the points show
+/// no blind cone.
+pub(crate) fn locate(points: &[[f32; 3]], params: &ConeParams) -> Option<Cone> {
+    if points.len() < MIN_POINTS {
+        return None;
+    }
+    let pts: Vec<[f64; 3]> = points.iter().map(|p| p.map(f64::from)).collect();
+    let (zl, zh) = z_range(&pts)?;
+    let span = zh - zl;
+    let seeds = seed_circles(&pts, zl + 0.25 * span, params);
+    let mut best: Option<Cone> = None;
+    for (center, radius) in seeds {
+        // Half way up: scanners stand about there, and any height within the story serves.
+        let z0 = zl + 0.5 * span;
+        let slope = ((z0 - zl) / radius).clamp(SLOPE.0, SLOPE.1);
+        let height = (zl + 0.2 * span, zh - 0.05 * span);
+        let start = Cone::at([center[0], center[1], z0], slope);
+        for h in [None, Some(height)] {
+            let fitted = fit_cone(
+                &Obs {
+                    pts: &pts,
+                    dt: None,
+                },
+                start,
+                h,
+                params,
+            );
+            best = better(best, fitted);
+        }
+    }
+    best.filter(|c| c.support as f64 >= MIN_SUPPORT * params.sectors as f64)
+}
+
+/// Locates a moving scanner over one short time window: the points with their `times`, the
+/// scanner taken to move in a straight line at a steady speed. The result's apex is where it
+/// was at `t_ref`. `seed` (say, the last window's answer moved on to `t_ref`) is tried first;
+/// the empty places of [`locate`] are tried when it fails.
+pub(crate) fn locate_moving(
+    points: &[[f32; 3]],
+    times: &[f64],
+    t_ref: f64,
+    seed: Option<Cone>,
+    params: &ConeParams,
+) -> Option<Cone> {
+    if points.len() < MIN_POINTS || points.len() != times.len() {
+        return None;
+    }
+    let pts: Vec<[f64; 3]> = points.iter().map(|p| p.map(f64::from)).collect();
+    let dt: Vec<f64> = times.iter().map(|t| t - t_ref).collect();
+    let obs = Obs {
+        pts: &pts,
+        dt: Some(&dt),
+    };
+    let enough = |c: &Cone| c.support as f64 >= MIN_SUPPORT * params.sectors as f64;
+    if let Some(s) = seed {
+        let fitted = fit_cone(&obs, s, None, params).filter(enough);
+        if fitted.is_some() {
+            return fitted;
+        }
+    }
+    let (zl, zh) = z_range(&pts)?;
+    let span = zh - zl;
+    let z0 = seed.map_or(zl + 0.5 * span, |s| s.apex[2]);
+    let mut best = None;
+    // Over the whole window the moving scanner saw the floor under most of its path; only the
+    // points of a short time around `t_ref` leave its blind spot empty. Their empty places
+    // seed the fit.
+    let mut near: Vec<usize> = (0..pts.len()).collect();
+    near.sort_by(|&a, &b| dt[a].abs().total_cmp(&dt[b].abs()));
+    near.truncate((pts.len() / SEED_SHARE).max(MIN_POINTS));
+    let middle: Vec<[f64; 3]> = near.iter().map(|&i| pts[i]).collect();
+    let seeds = seed_circles(&middle, zl + 0.25 * span, params);
+    for (center, radius) in seeds {
+        let slope = ((z0 - zl) / radius).clamp(SLOPE.0, SLOPE.1);
+        best = better(
+            best,
+            fit_cone(
+                &obs,
+                Cone::at([center[0], center[1], z0], slope),
+                None,
+                params,
+            ),
+        );
+    }
+    best.filter(enough)
+}
+
+/// The better of two fits: more sectors on the cone, then the smaller residual.
+fn better(best: Option<Cone>, new: Option<Cone>) -> Option<Cone> {
+    match (best, new) {
+        (Some(b), Some(n)) => {
+            let wins = n.support > b.support || (n.support == b.support && n.residual < b.residual);
+            Some(if wins { n } else { b })
+        }
+        (b, n) => b.or(n),
+    }
+}
+
+impl Cone {
+    /// A starting guess: a static apex and a slope.
+    fn at(apex: [f64; 3], slope: f64) -> Cone {
+        Cone {
+            apex,
+            velocity: [0.0; 2],
+            slope,
+            support: 0,
+            residual: 0.0,
+        }
+    }
+
+    /// Where the scanner was `dt` after the reference time.
+    pub fn position(&self, dt: f64) -> [f64; 3] {
+        [
+            self.apex[0] + self.velocity[0] * dt,
+            self.apex[1] + self.velocity[1] * dt,
+            self.apex[2],
+        ]
+    }
+}
+
+/// The points a cone is fitted to, with their times after the reference time when the scanner
+/// moves.
+struct Obs<'a> {
+    pts: &'a [[f64; 3]],
+    dt: Option<&'a [f64]>,
+}
+
+impl Obs<'_> {
+    fn dt(&self, i: usize) -> f64 {
+        self.dt.map_or(0.0, |d| d[i])
+    }
+}
+
+/// The 1st and 99th percentiles of the heights.
+fn z_range(pts: &[[f64; 3]]) -> Option<(f64, f64)> {
+    let mut z: Vec<f64> = pts.iter().map(|p| p[2]).collect();
+    let n = z.len();
+    let lo = *z.select_nth_unstable_by(n / 100, f64::total_cmp).1;
+    let hi = *z.select_nth_unstable_by(n - 1 - n / 100, f64::total_cmp).1;
+    (hi > lo).then_some((lo, hi))
+}
+
+/// Empty places among the points below `z_low`, as circles `(centre, radius)` fitted to where
+/// rays from each place stop, best first.
+fn seed_circles(pts: &[[f64; 3]], z_low: f64, params: &ConeParams) -> Vec<(P2, f64)> {
+    let low = pts.iter().filter(|p| p[2] < z_low).map(|p| [p[0], p[1]]);
+    let Some(raster) = Raster::of_points(low, params.cell, params.radius.1, MAX_CELLS) else {
+        return Vec::new();
+    };
+    let dist = raster.distance();
+    let (r_min, r_max) = params.radius;
+    let mut found: Vec<(usize, f64, P2, f64)> = Vec::new();
+    for j in 1..raster.ny.saturating_sub(1) {
+        for i in 1..raster.nx.saturating_sub(1) {
+            let d = dist[j * raster.nx + i];
+            if !(d >= r_min && d <= r_max) {
+                continue;
+            }
+            // A local maximum of the distance: the centre of an empty place.
+            let peak = (0..9).all(|k| {
+                let (a, b) = (i + k % 3 - 1, j + k / 3 - 1);
+                dist[b * raster.nx + a] <= d
+            });
+            if !peak {
+                continue;
+            }
+            if let Some((c, r, n)) = ray_circle(&raster, raster.center(i, j), params) {
+                found.push((n, -r, c, r));
+            }
+        }
+    }
+    // Most rays on the circle first; several peaks of one hole give the same circle.
+    found.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.total_cmp(&b.1)));
+    let mut out: Vec<(P2, f64)> = Vec::new();
+    for (_, _, c, r) in found {
+        if out
+            .iter()
+            .all(|(o, _)| crate::geom::dist(*o, c) > 2.0 * params.cell)
+        {
+            out.push((c, r));
+            if out.len() == params.seeds {
+                break;
+            }
+        }
+    }
+    out
+}
+
+/// Rays from `from` in every sector direction; the circle through their first hits, with the
+/// number of hits on it. `None` when too few rays hit or the circle does not contain `from`.
+fn ray_circle(raster: &Raster, from: P2, params: &ConeParams) -> Option<(P2, f64, usize)> {
+    let n = params.sectors;
+    let hits: Vec<P2> = (0..n)
+        .filter_map(|k| {
+            let a = std::f64::consts::TAU * k as f64 / n as f64;
+            let dir = [a.cos(), a.sin()];
+            let t = raster.first_hit(from, dir, 2.0 * params.radius.1)?;
+            Some([from[0] + t * dir[0], from[1] + t * dir[1]])
+        })
+        .collect();
+    if (hits.len() as f64) < MIN_SUPPORT * n as f64 {
+        return None;
+    }
+    let tol = 1.5 * raster.cell;
+    let (mut c, mut r) = fit_circle(&hits)?;
+    for _ in 0..3 {
+        let near: Vec<P2> = hits
+            .iter()
+            .copied()
+            .filter(|p| (crate::geom::dist(*p, c) - r).abs() <= tol)
+            .collect();
+        if near.len() < 3 {
+            return None;
+        }
+        (c, r) = fit_circle(&near)?;
+    }
+    let on = hits
+        .iter()
+        .filter(|p| (crate::geom::dist(**p, c) - r).abs() <= tol)
+        .count();
+    let inside = crate::geom::dist(from, c) < r;
+    (inside && r >= params.radius.0 && r <= params.radius.1).then_some((c, r, on))
+}
+
+/// The least-squares (Kåsa) circle through `pts`: centre and radius.
+pub(crate) fn fit_circle(pts: &[P2]) -> Option<(P2, f64)> {
+    if pts.len() < 3 {
+        return None;
+    }
+    // Centred on the mean for conditioning.
+    let n = pts.len() as f64;
+    let m = [
+        pts.iter().map(|p| p[0]).sum::<f64>() / n,
+        pts.iter().map(|p| p[1]).sum::<f64>() / n,
+    ];
+    let (mut sxx, mut sxy, mut syy, mut sxz, mut syz, mut sz) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    for p in pts {
+        let (x, y) = (p[0] - m[0], p[1] - m[1]);
+        let z = x * x + y * y;
+        sxx += x * x;
+        sxy += x * y;
+        syy += y * y;
+        sxz += x * z;
+        syz += y * z;
+        sz += z;
+    }
+    // Solve [sxx sxy; sxy syy] [a; b] = [sxz; syz] / 2 for the centre offset (a, b).
+    let det = sxx * syy - sxy * sxy;
+    if det.is_nan() || det.abs() <= 1e-12 * (sxx * syy).max(1e-30) {
+        return None;
+    }
+    let a = (sxz * syy - syz * sxy) / (2.0 * det);
+    let b = (syz * sxx - sxz * sxy) / (2.0 * det);
+    let r2 = a * a + b * b + sz / n;
+    (r2 > 0.0 && r2.is_finite()).then(|| ([m[0] + a, m[1] + b], r2.sqrt()))
+}
+
+/// For each sector around the scanner (where it was when each point was taken), the index of
+/// the point below it with the lowest elevation.
+fn lowest_per_sector(obs: &Obs, cone: &Cone, params: &ConeParams) -> Vec<usize> {
+    let n = params.sectors;
+    let mut best: Vec<Option<(f64, usize)>> = vec![None; n];
+    let reach2 = params.reach * params.reach;
+    for (i, p) in obs.pts.iter().enumerate() {
+        let c = cone.position(obs.dt(i));
+        let (dx, dy, dz) = (p[0] - c[0], p[1] - c[1], p[2] - c[2]);
+        let d2 = dx * dx + dy * dy;
+        if dz >= 0.0 || d2 < 1e-4 || d2 > reach2 {
+            continue;
+        }
+        // tan of the elevation: the most negative is the lowest.
+        let e = dz / d2.sqrt();
+        let k = ((diamond_angle(dx, dy) / 4.0 * n as f64) as usize).min(n - 1);
+        if best[k].is_none_or(|(b, _)| e < b) {
+            best[k] = Some((e, i));
+        }
+    }
+    best.into_iter().flatten().map(|(_, i)| i).collect()
+}
+
+/// A cheap stand-in for the angle of `(dx, dy)`: monotonic in it, from 0 to 4 for a full turn
+/// (the sectors it makes are within a factor 1.5 of equal, which the fit does not mind).
+fn diamond_angle(dx: f64, dy: f64) -> f64 {
+    let s = dx.abs() + dy.abs();
+    if s == 0.0 {
+        return 0.0;
+    }
+    match (dx >= 0.0, dy >= 0.0) {
+        (true, true) => dy / s,
+        (false, true) => 1.0 - dx / s,
+        (false, false) => 2.0 - dy / s,
+        (true, false) => 3.0 + dx / s,
+    }
+}
+
+/// Fits the blind cone from `start`: damped Gauss-Newton on the sectors' lowest points,
+/// outliers weighted out, for the apex's x, y and the slope; the velocity too when the points
+/// carry times; and the apex height when `height` gives its bounds. With only the floor in
+/// view, height and slope trade off (the blind spot's radius is height / slope) and a free
+/// height drifts; with walls close by, only the right height puts their lowest points on the
+/// cone.
+fn fit_cone(
+    obs: &Obs,
+    start: Cone,
+    height: Option<(f64, f64)>,
+    params: &ConeParams,
+) -> Option<Cone> {
+    // Unknowns: x, y, slope, height, vx, vy.
+    let free = [
+        true,
+        true,
+        true,
+        height.is_some(),
+        obs.dt.is_some(),
+        obs.dt.is_some(),
+    ];
+    let mut cone = start;
+    let residuals = |cone: &Cone, b: &[usize]| -> Vec<(f64, Vector6<f64>)> {
+        let t = cone.slope;
+        b.iter()
+            .map(|&i| {
+                let (p, dt) = (obs.pts[i], obs.dt(i));
+                let c = cone.position(dt);
+                let (dx, dy) = (c[0] - p[0], c[1] - p[1]);
+                let d = (dx * dx + dy * dy).sqrt().max(1e-9);
+                let u = [dx / d, dy / d];
+                let j = Vector6::new(t * u[0], t * u[1], d, -1.0, t * u[0] * dt, t * u[1] * dt);
+                (p[2] - c[2] + t * d, j)
+            })
+            .collect()
+    };
+    for _ in 0..40 {
+        let b = lowest_per_sector(obs, &cone, params);
+        if b.len() < 8 {
+            return None;
+        }
+        let r = residuals(&cone, &b);
+        let mut abs: Vec<f64> = r.iter().map(|x| x.0.abs()).collect();
+        let mid = abs.len() / 2;
+        let mad = *abs.select_nth_unstable_by(mid, f64::total_cmp).1;
+        let cut = (3.0 * 1.4826 * mad).max(params.tolerance / 2.0) + 0.01;
+        let (mut a, mut g) = (Matrix6::<f64>::zeros(), Vector6::<f64>::zeros());
+        for (res, j) in &r {
+            if res.abs() <= cut {
+                a += j * j.transpose();
+                g += j * *res;
+            }
+        }
+        for k in 0..6 {
+            if free[k] {
+                a[(k, k)] = a[(k, k)] * (1.0 + 1e-2) + 1e-9;
+            } else {
+                // A fixed unknown: its row and column say "no step".
+                a.row_mut(k).fill(0.0);
+                a.column_mut(k).fill(0.0);
+                a[(k, k)] = 1.0;
+                g[k] = 0.0;
+            }
+        }
+        let step = a.lu().solve(&(-g))?;
+        let (sx, sy) = (step[0].clamp(-0.3, 0.3), step[1].clamp(-0.3, 0.3));
+        let z = match height {
+            Some((lo, hi)) => (cone.apex[2] + step[3]).clamp(lo, hi),
+            None => cone.apex[2],
+        };
+        cone.apex = [cone.apex[0] + sx, cone.apex[1] + sy, z];
+        cone.slope = (cone.slope + step[2]).clamp(SLOPE.0, SLOPE.1);
+        cone.velocity = [
+            cone.velocity[0] + step[4].clamp(-0.5, 0.5),
+            cone.velocity[1] + step[5].clamp(-0.5, 0.5),
+        ];
+        if !(cone
+            .apex
+            .iter()
+            .chain(&cone.velocity)
+            .all(|c| c.is_finite()))
+        {
+            return None;
+        }
+        if sx.abs().max(sy.abs()) < 1e-4 && step[4].abs().max(step[5].abs()) < 1e-3 {
+            break;
+        }
+    }
+    let b = lowest_per_sector(obs, &cone, params);
+    let on: Vec<f64> = residuals(&cone, &b)
+        .into_iter()
+        .map(|x| x.0)
+        .filter(|r| r.abs() <= params.tolerance)
+        .collect();
+    if on.is_empty() {
+        return None;
+    }
+    let rms = (on.iter().map(|r| r * r).sum::<f64>() / on.len() as f64).sqrt();
+    cone.support = on.len();
+    cone.residual = rms / cone.slope;
+    Some(cone)
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// A square room 8 × 6 m, 3 m high, scanned from `at` (height 1.5 m) with a blind cone
+    /// below `min_elev` degrees: points on a regular grid of directions.
+    pub(crate) fn scan_room(at: P2, min_elev: f64) -> Vec<[f32; 3]> {
+        let (w, h, top) = (8.0, 6.0, 3.0);
+        let o = [at[0], at[1], 1.5];
+        let mut out = Vec::new();
+        for ia in 0..360 {
+            let az = (ia as f64 + 0.5).to_radians();
+            for ie in 0..150 {
+                let el = (min_elev + (89.0 - min_elev) * ie as f64 / 149.0).to_radians();
+                let d = [el.cos() * az.cos(), el.cos() * az.sin(), el.sin()];
+                let mut t = f64::INFINITY;
+                for (k, lo, hi) in [(0, 0.0, w), (1, 0.0, h), (2, 0.0, top)] {
+                    if d[k] > 0.0 {
+                        t = t.min((hi - o[k]) / d[k]);
+                    } else if d[k] < 0.0 {
+                        t = t.min((lo - o[k]) / d[k]);
+                    }
+                }
+                out.push([0, 1, 2].map(|k| (o[k] + t * d[k]) as f32));
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn diamond_angle_runs_once_round() {
+        let turn: Vec<f64> = (0..16)
+            .map(|k| {
+                let a = std::f64::consts::TAU * k as f64 / 16.0;
+                diamond_angle(a.cos(), a.sin())
+            })
+            .collect();
+        assert!(turn.windows(2).all(|w| w[0] < w[1]), "{turn:?}");
+        assert_eq!(diamond_angle(1.0, 0.0), 0.0);
+        assert_eq!(diamond_angle(0.0, 1.0), 1.0);
+        assert_eq!(diamond_angle(-1.0, 0.0), 2.0);
+        assert_eq!(diamond_angle(0.0, -1.0), 3.0);
+        assert!(diamond_angle(1.0, -1e-9) < 4.0);
+    }
+
+    #[test]
+    fn circle_through_three_points() {
+        let (c, r) = fit_circle(&[[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0]]).unwrap();
+        assert!(crate::geom::dist(c, [0.0, 0.0]) < 1e-12 && (r - 1.0).abs() < 1e-12);
+        assert!(fit_circle(&[[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]]).is_none());
+    }
+
+    #[test]
+    fn one_scan_from_a_known_point() {
+        for at in [[3.0, 2.5], [1.2, 4.6], [6.5, 1.0]] {
+            let pts = scan_room(at, -60.0);
+            let cone = locate(&pts, &ConeParams::default()).expect("a blind cone");
+            let err = crate::geom::dist([cone.apex[0], cone.apex[1]], at);
+            assert!(err < 0.02, "{at:?}: {err} m off ({cone:?})");
+            // The blind spot's radius on the floor: 1.5 m / tan 60°.
+            let radius = cone.apex[2] / cone.slope;
+            assert!((radius - 1.5 / 3f64.sqrt()).abs() < 0.02, "{cone:?}");
+            assert!(cone.apex[2] > 0.5 && cone.apex[2] < 2.9, "{cone:?}");
+        }
+    }
+
+    #[test]
+    fn no_blind_cone_no_estimate() {
+        // Points spread evenly over the floor: no hole anywhere.
+        let pts: Vec<[f32; 3]> = (0..4000)
+            .map(|k| [(k % 80) as f32 * 0.1, (k / 80) as f32 * 0.1, 0.0])
+            .chain((0..400).map(|k| [0.0, (k % 50) as f32 * 0.1, (k / 50) as f32 * 0.3]))
+            .collect();
+        assert_eq!(locate(&pts, &ConeParams::default()), None);
+        assert_eq!(locate(&pts[..10], &ConeParams::default()), None);
+    }
+}

@@ -1,0 +1,536 @@
+//! Where the scanner stood, when the input does not say (beyond the paper, which assumes poses
+//! are known or goes without). Labeling (§3.3) forces inside every triangle that lines of
+//! sight cross, and sampling (§3.1) orients normals toward the scanner; without viewpoints
+//! neither happens and the plan rests on geometry alone.
+//!
+//! - Static scans with scan ids but no poses: each scan's blind cone under the tripod gives
+//!   its scanner position ([`cone`]).
+//! - A mobile scan with times but no trajectory: the same cone, fitted to the points of short
+//!   time windows, gives the path ([`path`]).
+//! - Plain x, y, z: [`open_space`] places pseudo-viewpoints in the open floor the story's
+//!   floor and ceiling points cover, after sampling.
+//!
+//! Estimated viewpoints are used exactly as given ones; [`ViewpointsReport`] says which are
+//! which, with a residual per scan.
+
+pub(crate) mod cone;
+pub(crate) mod path;
+pub(crate) mod raster;
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::cloud::{PointCloud, ScanPose, TrajectorySample, Viewpoints};
+use crate::params::{within, ParamRange};
+
+/// Parameters of [`estimate`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ViewpointsParams {
+    /// Estimate scanner positions when the input gives none (static scans with scan ids,
+    /// mobile scans with times). `false` plans on geometry alone, as without poses before.
+    pub estimate: bool,
+    /// Points of each scan (spread evenly over it) that the estimate looks at.
+    pub max_points_per_scan: usize,
+    /// Points per time window of a mobile scan (of the evenly thinned cloud).
+    pub window_points: usize,
+}
+
+impl Default for ViewpointsParams {
+    fn default() -> Self {
+        ViewpointsParams {
+            estimate: true,
+            max_points_per_scan: 20_000,
+            window_points: 8_000,
+        }
+    }
+}
+
+/// A parameter out of range.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ViewpointsError {
+    #[error("invalid viewpoints parameter `{name}`: {why}")]
+    BadParam { name: &'static str, why: String },
+}
+
+/// The accepted values of [`ViewpointsParams`] (see [`crate::params::ParamRange`]).
+pub const RANGES: &[ParamRange] = &[
+    ParamRange::new("max_points_per_scan", 1_000.0, 10_000_000.0, ""),
+    ParamRange::new("window_points", 500.0, 1_000_000.0, ""),
+];
+
+impl ViewpointsParams {
+    /// Checks every value; the error names the parameter.
+    pub fn check(&self) -> Result<(), ViewpointsError> {
+        let check = |name, v: f64| {
+            within(RANGES, name, v).map_err(|(name, why)| ViewpointsError::BadParam { name, why })
+        };
+        check("max_points_per_scan", self.max_points_per_scan as f64)?;
+        check("window_points", self.window_points as f64)
+    }
+}
+
+/// Where the viewpoints of a plan came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ViewpointSource {
+    /// Poses or a trajectory came with the input (sidecar or E57).
+    Given,
+    /// Estimated from the points (scan ids or times, no poses).
+    Estimated,
+    /// Some scans' poses were given and the others estimated.
+    Mixed,
+    /// Pseudo-viewpoints placed in open space (plain x, y, z).
+    OpenSpace,
+    /// None: the plan rests on geometry alone.
+    None,
+}
+
+/// One static scan's viewpoint, as reported.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ScanViewpoint {
+    /// The scan's index as the input names it.
+    pub index: u32,
+    /// True when the position was estimated from the points.
+    pub estimated: bool,
+    /// Scanner position, local frame; `None` when it could not be estimated.
+    pub position: Option<[f64; 3]>,
+    /// Estimated positions: root mean square distance of the blind-spot edge from the fitted
+    /// cone, metres (horizontal).
+    pub residual: Option<f64>,
+    /// Estimated positions: the fraction of azimuth sectors whose edge lies on the cone.
+    pub support: Option<f64>,
+    /// Points of the scan.
+    pub points: u64,
+}
+
+/// A mobile scan's path, as reported.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PathReport {
+    pub estimated: bool,
+    /// Samples of the path.
+    pub samples: usize,
+    /// Estimated paths: time windows, and those whose scanner position was found.
+    pub windows: usize,
+    pub located: usize,
+    /// Estimated paths: median residual of the windows' cone fits, metres.
+    pub residual: Option<f64>,
+    /// Estimated paths: the path's length, metres.
+    pub length: Option<f64>,
+}
+
+/// One story's pseudo-viewpoints (plain x, y, z).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct OpenSpaceStory {
+    pub level: usize,
+    /// Pseudo-viewpoints placed, local frame.
+    pub viewpoints: Vec<[f64; 2]>,
+    /// Wall samples that some pseudo-viewpoint sees.
+    pub samples_seen: usize,
+    pub samples: usize,
+}
+
+/// What the plan's viewpoints are and how much of the plan rests on them
+/// (`floorplan.input.viewpoints`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ViewpointsReport {
+    pub source: ViewpointSource,
+    /// Static scans, one per scan id.
+    pub scans: Vec<ScanViewpoint>,
+    /// A mobile scan's path.
+    pub path: Option<PathReport>,
+    /// Plain x, y, z: per story.
+    pub open_space: Vec<OpenSpaceStory>,
+    /// Fraction of the plan's open area that viewpoint evidence (lines of sight, poses, the
+    /// path) forced inside; the rest was labelled from the wall geometry alone.
+    pub rests_on: Option<f64>,
+}
+
+impl Default for ViewpointsReport {
+    fn default() -> Self {
+        ViewpointsReport {
+            source: ViewpointSource::None,
+            scans: Vec::new(),
+            path: None,
+            open_space: Vec::new(),
+            rests_on: None,
+        }
+    }
+}
+
+/// Viewpoints for a cloud that came without (some of) them, and the report.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Estimate {
+    /// The viewpoints to plan with instead of the cloud's; `None` to use the cloud's own.
+    pub viewpoints: Option<Viewpoints>,
+    pub report: ViewpointsReport,
+}
+
+/// Looks at what the cloud says about its scanners and estimates what it does not say.
+pub fn estimate(cloud: &PointCloud, params: &ViewpointsParams) -> Estimate {
+    let counts = scan_counts(cloud);
+    match &cloud.viewpoints {
+        Viewpoints::Static(poses) if poses.iter().all(|p| finite(p.position)) => Estimate {
+            viewpoints: None,
+            report: ViewpointsReport {
+                source: ViewpointSource::Given,
+                scans: poses
+                    .iter()
+                    .enumerate()
+                    .map(|(slot, p)| given(p, counts.get(slot).copied().unwrap_or(0)))
+                    .collect(),
+                ..Default::default()
+            },
+        },
+        Viewpoints::Trajectory(samples) => Estimate {
+            viewpoints: None,
+            report: ViewpointsReport {
+                source: ViewpointSource::Given,
+                path: Some(PathReport {
+                    estimated: false,
+                    samples: samples.len(),
+                    windows: 0,
+                    located: 0,
+                    residual: None,
+                    length: None,
+                }),
+                ..Default::default()
+            },
+        },
+        _ if !params.estimate => Estimate {
+            viewpoints: None,
+            report: ViewpointsReport::default(),
+        },
+        Viewpoints::Static(poses) => estimate_static(cloud, Some(poses), &counts, params),
+        Viewpoints::None => {
+            let mobile = !cloud.time.is_empty() && cloud.scan_ids.len() <= 1;
+            if mobile {
+                path::estimate_path(cloud, params)
+            } else if !cloud.scan_ids.is_empty() && !cloud.scan.is_empty() {
+                estimate_static(cloud, None, &counts, params)
+            } else {
+                Estimate {
+                    viewpoints: None,
+                    report: ViewpointsReport::default(),
+                }
+            }
+        }
+    }
+}
+
+fn finite(p: [f64; 3]) -> bool {
+    p.iter().all(|c| c.is_finite())
+}
+
+fn given(p: &ScanPose, points: u64) -> ScanViewpoint {
+    ScanViewpoint {
+        index: p.index,
+        estimated: false,
+        position: Some(p.position),
+        residual: None,
+        support: None,
+        points,
+    }
+}
+
+/// Points per scan slot.
+fn scan_counts(cloud: &PointCloud) -> Vec<u64> {
+    let mut counts = vec![0u64; cloud.scan_ids.len()];
+    for &s in &cloud.scan {
+        if let Some(c) = counts.get_mut(s as usize) {
+            *c += 1;
+        }
+    }
+    counts
+}
+
+/// Locates every scan without a (finite) pose from its own points.
+fn estimate_static(
+    cloud: &PointCloud,
+    poses: Option<&Vec<ScanPose>>,
+    counts: &[u64],
+    params: &ViewpointsParams,
+) -> Estimate {
+    let slots = cloud.scan_ids.len();
+    let known = |slot: usize| {
+        poses
+            .and_then(|p| p.get(slot))
+            .filter(|p| finite(p.position))
+    };
+    let mut sampler = Thinned::new(params.max_points_per_scan, slots);
+    for (&s, p) in cloud.scan.iter().zip(&cloud.xyz) {
+        if known(s as usize).is_none() {
+            sampler.push(s as usize, *p);
+        }
+    }
+    let cones: Vec<Option<cone::Cone>> = sampler
+        .slots
+        .par_iter()
+        .map(|t| cone::locate(&t.items, &cone::ConeParams::default()))
+        .collect();
+    let mut out = Vec::with_capacity(slots);
+    let mut scans = Vec::with_capacity(slots);
+    for (slot, cone) in cones.into_iter().enumerate() {
+        let index = cloud.scan_ids[slot];
+        let points = counts.get(slot).copied().unwrap_or(0);
+        if let Some(p) = known(slot) {
+            out.push(*p);
+            scans.push(given(p, points));
+            continue;
+        }
+        let position = cone.map(|c| c.apex).unwrap_or([f64::NAN; 3]);
+        out.push(ScanPose {
+            index,
+            position,
+            quaternion: [1.0, 0.0, 0.0, 0.0],
+        });
+        scans.push(ScanViewpoint {
+            index,
+            estimated: true,
+            position: cone.map(|c| c.apex),
+            residual: cone.map(|c| c.residual),
+            support: cone.map(|c| c.support as f64 / cone::ConeParams::default().sectors as f64),
+            points,
+        });
+    }
+    let any_given = scans.iter().any(|s| !s.estimated);
+    let located = scans.iter().filter(|s| s.position.is_some()).count();
+    if located == 0 {
+        // Nothing to see from: plan on geometry (and open space) instead.
+        return Estimate {
+            viewpoints: None,
+            report: ViewpointsReport {
+                scans,
+                ..Default::default()
+            },
+        };
+    }
+    Estimate {
+        viewpoints: Some(Viewpoints::Static(out)),
+        report: ViewpointsReport {
+            source: if any_given {
+                ViewpointSource::Mixed
+            } else {
+                ViewpointSource::Estimated
+            },
+            scans,
+            ..Default::default()
+        },
+    }
+}
+
+/// An even subsample of at most `cap` items per slot, whatever order the items arrive in:
+/// when a slot is full, every other item is dropped and the slot keeps every second item
+/// from then on.
+pub(crate) struct Thinned<T> {
+    cap: usize,
+    pub slots: Vec<ThinSlot<T>>,
+}
+
+pub(crate) struct ThinSlot<T> {
+    stride: u64,
+    seen: u64,
+    pub items: Vec<T>,
+}
+
+impl<T> Thinned<T> {
+    pub fn new(cap: usize, slots: usize) -> Thinned<T> {
+        Thinned {
+            cap: cap.max(2),
+            slots: (0..slots)
+                .map(|_| ThinSlot {
+                    stride: 1,
+                    seen: 0,
+                    items: Vec::new(),
+                })
+                .collect(),
+        }
+    }
+
+    pub fn push(&mut self, slot: usize, item: T) {
+        let cap = self.cap;
+        let Some(s) = self.slots.get_mut(slot) else {
+            return;
+        };
+        if s.seen.is_multiple_of(s.stride) {
+            if s.items.len() == cap {
+                let mut k = 0;
+                s.items.retain(|_| {
+                    k += 1;
+                    k % 2 == 1
+                });
+                s.stride *= 2;
+            }
+            if s.seen.is_multiple_of(s.stride) {
+                s.items.push(item);
+            }
+        }
+        s.seen += 1;
+    }
+}
+
+/// Notes for the user: where the viewpoints came from when they were not all given, and how
+/// much of the plan rests on them.
+pub fn describe(report: &ViewpointsReport) -> Vec<String> {
+    let mut notes = Vec::new();
+    let share = report
+        .rests_on
+        .map(|f| format!("{:.0} % of the open area", 100.0 * f))
+        .unwrap_or_else(|| "none of the open area".into());
+    match report.source {
+        ViewpointSource::Given => return notes,
+        ViewpointSource::Estimated | ViewpointSource::Mixed if !report.scans.is_empty() => {
+            let est: Vec<&ScanViewpoint> = report.scans.iter().filter(|s| s.estimated).collect();
+            let located: Vec<&ScanViewpoint> = est
+                .iter()
+                .copied()
+                .filter(|s| s.position.is_some())
+                .collect();
+            let mut res: Vec<f64> = located.iter().filter_map(|s| s.residual).collect();
+            res.sort_by(f64::total_cmp);
+            let median = res.get(res.len() / 2).copied().unwrap_or(0.0);
+            notes.push(format!(
+                "no scanner pose was given for {} of {} scans: {} were located from the blind spot under the scanner (median residual {:.1} cm) and are used as poses",
+                est.len(),
+                report.scans.len(),
+                located.len(),
+                100.0 * median
+            ));
+            let lost: Vec<String> = est
+                .iter()
+                .filter(|s| s.position.is_none())
+                .map(|s| s.index.to_string())
+                .collect();
+            if !lost.is_empty() {
+                notes.push(format!(
+                    "scans {} could not be located: their points give no line of sight",
+                    lost.join(", ")
+                ));
+            }
+            notes.push(format!(
+                "{share} was forced inside by lines of sight from these viewpoints; the rest was labelled from the wall geometry"
+            ));
+        }
+        ViewpointSource::Estimated => {
+            if let Some(p) = &report.path {
+                notes.push(format!(
+                    "no trajectory was given: the mobile scanner's path was estimated from the points' times ({} of {} time windows located, {:.1} m long) and is used as the trajectory",
+                    p.located,
+                    p.windows,
+                    p.length.unwrap_or(0.0)
+                ));
+                notes.push(format!(
+                    "{share} was forced inside by lines of sight from the estimated path; the rest was labelled from the wall geometry"
+                ));
+            }
+        }
+        ViewpointSource::OpenSpace => {
+            let placed: usize = report.open_space.iter().map(|s| s.viewpoints.len()).sum();
+            notes.push(format!(
+                "no scanner poses, scan ids or times were given: {placed} pseudo-viewpoints were placed in the open floor the floor and ceiling points cover"
+            ));
+            notes.push(format!(
+                "{share} was forced inside by lines of sight from these pseudo-viewpoints; the rest was labelled from the wall geometry"
+            ));
+        }
+        ViewpointSource::None | ViewpointSource::Mixed => {
+            notes.push(
+                "no scanner poses were given and none could be estimated: the plan rests on the wall geometry alone"
+                    .into(),
+            );
+        }
+    }
+    notes
+}
+
+/// Trajectory samples from positions at times, as a mobile path.
+pub(crate) fn trajectory(points: &[(f64, [f64; 3])]) -> Vec<TrajectorySample> {
+    points
+        .iter()
+        .map(|&(t, position)| TrajectorySample {
+            t,
+            position,
+            quaternion: [1.0, 0.0, 0.0, 0.0],
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thinning_keeps_an_even_subsample() {
+        let mut t = Thinned::new(10, 2);
+        for k in 0..100u32 {
+            t.push(0, k);
+        }
+        t.push(1, 7);
+        t.push(5, 1);
+        // 100 items into 10 places: every 16th, from the first.
+        assert_eq!(t.slots[0].items, vec![0, 16, 32, 48, 64, 80, 96]);
+        assert_eq!(t.slots[1].items, vec![7]);
+    }
+
+    #[test]
+    fn given_poses_are_reported_as_given() {
+        let cloud = PointCloud {
+            xyz: vec![[0.0; 3]; 3],
+            scan: vec![0, 0, 1],
+            scan_ids: vec![4, 9],
+            viewpoints: Viewpoints::Static(vec![
+                ScanPose {
+                    index: 4,
+                    position: [1.0, 2.0, 1.5],
+                    quaternion: [1.0, 0.0, 0.0, 0.0],
+                },
+                ScanPose {
+                    index: 9,
+                    position: [3.0, 2.0, 1.5],
+                    quaternion: [1.0, 0.0, 0.0, 0.0],
+                },
+            ]),
+            ..Default::default()
+        };
+        let e = estimate(&cloud, &ViewpointsParams::default());
+        assert_eq!(e.viewpoints, None);
+        assert_eq!(e.report.source, ViewpointSource::Given);
+        assert_eq!(e.report.scans.len(), 2);
+        assert_eq!(e.report.scans[0].points, 2);
+        assert_eq!(e.report.scans[1].position, Some([3.0, 2.0, 1.5]));
+        assert!(!e.report.scans[1].estimated);
+    }
+
+    #[test]
+    fn scans_without_poses_are_located() {
+        let at = [[2.0, 2.0], [5.5, 3.5]];
+        let mut cloud = PointCloud::default();
+        for (k, a) in at.iter().enumerate() {
+            let pts = cone::tests::scan_room(*a, -55.0);
+            cloud.scan.extend(std::iter::repeat_n(k as u16, pts.len()));
+            cloud.xyz.extend(pts);
+        }
+        cloud.scan_ids = vec![10, 11];
+        let e = estimate(&cloud, &ViewpointsParams::default());
+        assert_eq!(e.report.source, ViewpointSource::Estimated);
+        let Some(Viewpoints::Static(poses)) = &e.viewpoints else {
+            panic!("no poses: {e:?}")
+        };
+        for (p, a) in poses.iter().zip(at) {
+            let err = crate::geom::dist([p.position[0], p.position[1]], a);
+            assert!(err < 0.02, "{err}");
+        }
+        assert_eq!(poses[1].index, 11);
+        assert!(e
+            .report
+            .scans
+            .iter()
+            .all(|s| s.estimated && s.residual.unwrap() < 0.02));
+        // Switched off: nothing is estimated.
+        let off = ViewpointsParams {
+            estimate: false,
+            ..Default::default()
+        };
+        assert_eq!(estimate(&cloud, &off).viewpoints, None);
+    }
+}
