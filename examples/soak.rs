@@ -495,12 +495,16 @@ async fn main() {
     let doubles = completions.values().filter(|&&n| n > 1).count();
     let live: BTreeSet<String> = statuses.keys().cloned().collect();
     let jobs_dir = blobs.join("jobs");
-    let leaked: Vec<String> = std::fs::read_dir(&jobs_dir)
+    // A job folder left without a job, with the files in it (an empty folder holds none).
+    let leaked: Vec<(String, usize)> = std::fs::read_dir(&jobs_dir)
         .into_iter()
         .flatten()
         .flatten()
-        .map(|e| e.file_name().to_string_lossy().to_string())
-        .filter(|id| !live.contains(id))
+        .map(|e| {
+            let files = count_files(&e.path());
+            (e.file_name().to_string_lossy().to_string(), files)
+        })
+        .filter(|(id, _)| !live.contains(id))
         .collect();
     let scratch: usize = (0..a.workers)
         .map(|i| {
@@ -549,8 +553,10 @@ async fn main() {
         "double completions: {doubles} (jobs completed: {})",
         completions.len()
     );
+    let leaked_files: usize = leaked.iter().map(|l| l.1).sum();
     println!(
-        "leaked blobs: {} job folders without a job ({leaked:?}); scratch entries left: {scratch}",
+        "leaked blobs: {leaked_files} files in {} job folders without a job ({leaked:?}); \
+         scratch entries left: {scratch}",
         leaked.len()
     );
     println!(
@@ -563,6 +569,21 @@ async fn main() {
     if lost > 0 || doubles > 0 || !leaked.is_empty() {
         std::process::exit(1);
     }
+}
+
+fn count_files(dir: &Path) -> usize {
+    std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|e| {
+            if e.path().is_dir() {
+                count_files(&e.path())
+            } else {
+                1
+            }
+        })
+        .sum()
 }
 
 /// An upload that sends a little and then stops (the server drops it).
