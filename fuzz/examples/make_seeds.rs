@@ -183,7 +183,58 @@ fn poses_seeds(c: &PointCloud) {
     .unwrap();
 }
 
+/// Requests for the HTTP targets: query strings, multipart bodies, parameter files.
+fn http_seeds() {
+    let queries: [&[u8]; 5] = [
+        b"\x00samples.cell_size=0.1&filename=../room.xyz",
+        b"\x00fitting.iterations=1000000000000",
+        b"\x00labeling.solver=harmonic&smoothing.registration_error=0.01&emit_samples=true",
+        b"\x01status=queued&limit=5&cursor=0190c1d2-7a3b-7c00-8000-000000000000",
+        b"\x02",
+    ];
+    for (i, q) in queries.iter().enumerate() {
+        std::fs::write(out("http_query", &format!("q{i}")), q).unwrap();
+    }
+    let part = |name: &str, file: Option<&str>, body: &str| {
+        let disposition = match file {
+            Some(f) => format!("form-data; name=\"{name}\"; filename=\"{f}\""),
+            None => format!("form-data; name=\"{name}\""),
+        };
+        format!("--fuzzboundary\r\nContent-Disposition: {disposition}\r\n\r\n{body}\r\n")
+    };
+    let cloud = "0 0 0\n1 0 0\n0 1 0\n1 1 1\n";
+    let poses = r#"{"poses": [{"index": 0, "position": [0.5, 0.5, 1.5]}]}"#;
+    let bodies = [
+        format!("{}--fuzzboundary--\r\n", part("cloud", Some("c.xyz"), cloud)),
+        format!(
+            "{}{}{}--fuzzboundary--\r\n",
+            part("params", None, r#"{"samples": {"cell_size": 0.1}}"#),
+            part("poses", Some("p.json"), poses),
+            part("cloud", Some("c.xyz"), cloud)
+        ),
+        format!(
+            "{}{}--fuzzboundary--\r\n",
+            part("params", None, "[fitting]\niterations = 200\n"),
+            part("cloud", None, cloud)
+        ),
+        format!("{}--fuzzboundary--\r\n", part("clouds", None, cloud)),
+    ];
+    for (i, b) in bodies.iter().enumerate() {
+        std::fs::write(out("http_multipart", &format!("m{i}")), b).unwrap();
+    }
+    let params = [
+        r#"{"samples": {"cell_size": 0.1, "min_points": 20}, "fitting": {"circles": false}}"#,
+        "[stories]\nmin_wall_height = 2.5\n[labeling]\nsolver = \"harmonic\"\n",
+        "samples.cell_size=0.1",
+        "fitting.iterations=100001",
+    ];
+    for (i, p) in params.iter().enumerate() {
+        std::fs::write(out("http_params", &format!("p{i}")), p).unwrap();
+    }
+}
+
 fn main() {
+    http_seeds();
     let c = cloud();
     ply_seeds(&c);
     e57_seeds(&c);
