@@ -570,6 +570,9 @@ mod tests {
         let low = rooms::CEILING_CAPTURE_ABOVE as f32;
         assert!(sim.cloud.xyz.iter().all(|p| p[2] >= low));
         assert!(sim.cloud.len() > 5_000);
+    }
+
+    #[test]
     fn kept_modes_strip_what_they_should() {
         let opts = |keep| ScanOptions {
             points: 20_000,

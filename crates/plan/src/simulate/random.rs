@@ -414,7 +414,7 @@ fn into_model(l: Layout, ceiling: f64) -> StoryModel {
                 z: [f + DOOR_HEIGHT, c],
             });
         }
-        patches.push(rect_patch(r, f + DOOR_HEIGHT));
+        patches.push(Patch::from_rect(r, f + DOOR_HEIGHT));
     }
     for t in &l.tables {
         let corners = [[t.x0, t.y0], [t.x1, t.y0], [t.x1, t.y1], [t.x0, t.y1]];
@@ -427,11 +427,13 @@ fn into_model(l: Layout, ceiling: f64) -> StoryModel {
                 z: [f, f + TABLE_HEIGHT],
             });
         }
-        patches.push(rect_patch(*t, f + TABLE_HEIGHT));
+        patches.push(Patch::from_rect(*t, f + TABLE_HEIGHT));
     }
     StoryModel {
         floor_z: f,
         ceiling_z: c,
+        slabs: true,
+        capture_above: None,
         surfaces,
         patches,
         stations: l.stations,
@@ -443,13 +445,6 @@ fn into_model(l: Layout, ceiling: f64) -> StoryModel {
             polygons,
             walls,
         },
-    }
-}
-
-fn rect_patch(r: Rect, z: f64) -> Patch {
-    Patch {
-        corners: [[r.x0, r.y0], [r.x1, r.y0], [r.x1, r.y1], [r.x0, r.y1]],
-        z,
     }
 }
 
