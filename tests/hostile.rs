@@ -273,7 +273,7 @@ async fn the_job_timeout_holds_and_frees_the_worker(env: &Env) {
 
 async fn the_real_pipeline_stops_inside_a_stage_at_its_time_limit(env: &Env) {
     let case = "real pipeline time limit";
-    // A scan the debug build plans in several seconds; a 1 cm grid makes every stage heavier.
+    // A scan the debug build plans in several seconds; a fixed 1 cm grid makes every stage heavier.
     let sim = env.dir.path().join("sim");
     let (out, _) = run_to_exit(
         &[
@@ -294,7 +294,7 @@ async fn the_real_pipeline_stops_inside_a_stage_at_its_time_limit(env: &Env) {
     let s = env.serve("d", &["--job-timeout", "1", "--workers", "1"]);
     let c = Client::new(&s.base, None);
     let res = c
-        .req(Method::POST, "/v1/jobs?samples.cell_size=0.01")
+        .req(Method::POST, "/v1/jobs?samples.cell_size=0.01&samples.derive_cell_size=false")
         .body(cloud)
         .send()
         .await
