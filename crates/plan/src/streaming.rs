@@ -34,6 +34,7 @@ use crate::samples::{
     SpacingProbe, StoryBounds, WallSamples,
 };
 use crate::stories::{HeightHistogram, Story};
+use crate::viewpoints;
 
 /// Parameters of [`plan_file`].
 #[derive(Debug, Clone, PartialEq)]
@@ -163,9 +164,12 @@ pub fn plan_file(
     let step = survey.n.div_ceil(UNITS_SAMPLE as u64).max(1);
     let mut units = Vec::with_capacity(UNITS_SAMPLE);
     let mut index = 0u64;
+    // Points per scan slot, for the viewpoints report.
+    let mut scan_counts = vec![0u64; skeleton.scan_ids.len()];
     let mut chunks = open_chunks(path, &read)?;
     while chunks.next_chunk(&mut chunk)? {
         stop()?;
+        viewpoints::count_scans(&mut scan_counts, &chunk.scan);
         for (k, p) in chunk.xyz.iter().enumerate() {
             hist.add(p[2]);
             if index.is_multiple_of(step) {
@@ -281,7 +285,11 @@ pub fn plan_file(
         next += 1;
         out
     };
-    let summary = CloudSummary::of(&skeleton, survey.n);
+    let mut summary = CloudSummary::of(&skeleton, survey.n);
+    // Streaming plans with the viewpoints it is given; it cannot estimate missing ones.
+    if let Some(report) = viewpoints::given_report(&skeleton.viewpoints, &scan_counts) {
+        summary.viewpoints = report;
+    }
     let plan = plan_stories(
         &summary,
         &stories,

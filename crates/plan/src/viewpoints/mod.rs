@@ -169,40 +169,20 @@ pub struct Estimate {
 /// Looks at what the cloud says about its scanners and estimates what it does not say.
 pub fn estimate(cloud: &PointCloud, params: &ViewpointsParams) -> Estimate {
     let counts = scan_counts(cloud);
+    if let Some(report) = given_report(&cloud.viewpoints, &counts) {
+        return Estimate {
+            viewpoints: None,
+            report,
+        };
+    }
     match &cloud.viewpoints {
-        Viewpoints::Static(poses) if poses.iter().all(|p| finite(p.position)) => Estimate {
-            viewpoints: None,
-            report: ViewpointsReport {
-                source: ViewpointSource::Given,
-                scans: poses
-                    .iter()
-                    .enumerate()
-                    .map(|(slot, p)| given(p, counts.get(slot).copied().unwrap_or(0)))
-                    .collect(),
-                ..Default::default()
-            },
-        },
-        Viewpoints::Trajectory(samples) => Estimate {
-            viewpoints: None,
-            report: ViewpointsReport {
-                source: ViewpointSource::Given,
-                path: Some(PathReport {
-                    estimated: false,
-                    samples: samples.len(),
-                    windows: 0,
-                    located: 0,
-                    residual: None,
-                    length: None,
-                }),
-                ..Default::default()
-            },
-        },
         _ if !params.estimate => Estimate {
             viewpoints: None,
             report: ViewpointsReport::default(),
         },
         Viewpoints::Static(poses) => estimate_static(cloud, Some(poses), &counts, params),
-        Viewpoints::None => {
+        // A trajectory is always given (above).
+        Viewpoints::None | Viewpoints::Trajectory(_) => {
             let mobile = !cloud.time.is_empty() && cloud.scan_ids.len() <= 1;
             if mobile {
                 path::estimate_path(cloud, params)
@@ -215,6 +195,37 @@ pub fn estimate(cloud: &PointCloud, params: &ViewpointsParams) -> Estimate {
                 }
             }
         }
+    }
+}
+
+/// The report for viewpoints the cloud came with, or `None` when some are missing.
+/// `counts` holds the points per scan slot.
+pub(crate) fn given_report(viewpoints: &Viewpoints, counts: &[u64]) -> Option<ViewpointsReport> {
+    match viewpoints {
+        Viewpoints::Static(poses) if poses.iter().all(|p| finite(p.position)) => {
+            Some(ViewpointsReport {
+                source: ViewpointSource::Given,
+                scans: poses
+                    .iter()
+                    .enumerate()
+                    .map(|(slot, p)| given(p, counts.get(slot).copied().unwrap_or(0)))
+                    .collect(),
+                ..Default::default()
+            })
+        }
+        Viewpoints::Trajectory(samples) => Some(ViewpointsReport {
+            source: ViewpointSource::Given,
+            path: Some(PathReport {
+                estimated: false,
+                samples: samples.len(),
+                windows: 0,
+                located: 0,
+                residual: None,
+                length: None,
+            }),
+            ..Default::default()
+        }),
+        _ => None,
     }
 }
 
@@ -236,12 +247,17 @@ fn given(p: &ScanPose, points: u64) -> ScanViewpoint {
 /// Points per scan slot.
 fn scan_counts(cloud: &PointCloud) -> Vec<u64> {
     let mut counts = vec![0u64; cloud.scan_ids.len()];
-    for &s in &cloud.scan {
+    count_scans(&mut counts, &cloud.scan);
+    counts
+}
+
+/// Adds the points of `scan` (slots) to `counts`, for clouds read in pieces.
+pub(crate) fn count_scans(counts: &mut [u64], scan: &[u16]) {
+    for &s in scan {
         if let Some(c) = counts.get_mut(s as usize) {
             *c += 1;
         }
     }
-    counts
 }
 
 /// Locates every scan without a (finite) pose from its own points.
