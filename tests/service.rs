@@ -501,6 +501,33 @@ async fn oversized_uploads_get_413_and_leave_nothing() {
     );
 }
 
+/// The two uploads the old screen judged unlike the reader (issue 14).
+#[tokio::test]
+async fn the_upload_screen_is_the_readers_detector() {
+    let s = start(fake(1), |c| c.workers = 0).await;
+    // The screen is the reader's own detector: text the reader cannot place is refused up
+    // front, and a column-name header the reader skips is accepted.
+    expect_error(
+        s.post("/v1/jobs")
+            .body("# a\n# b\n# c\n# d\n1 2 3\n")
+            .send()
+            .await
+            .unwrap(),
+        415,
+        "unsupported_format",
+    )
+    .await;
+    let named = s
+        .post("/v1/jobs")
+        .body(format!("x y z\n{}", xyz(3)))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(named.status(), 202);
+    let job: Value = named.json().await.unwrap();
+    assert_eq!(job["upload"]["format"], "xyz", "{job}");
+}
+
 #[tokio::test]
 async fn bad_bodies_and_parameters_get_stable_codes() {
     let s = start(fake(1), |c| c.workers = 0).await;

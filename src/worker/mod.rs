@@ -3,7 +3,6 @@
 
 pub mod fake;
 pub mod pipeline;
-pub mod points;
 pub mod progress;
 pub mod sweeper;
 

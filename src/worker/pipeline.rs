@@ -130,10 +130,10 @@ impl Pipeline for PlanPipeline {
         progress.report(Stage::Read, 0.0);
         let read_start = Instant::now();
         // Refuse an over-limit cloud before the reader allocates it.
-        match super::points::declared(&input.cloud, &|| progress.cancelled()) {
+        match io::declared_points(&input.cloud, &progress.cancel()) {
             Ok(Some(n)) => check_points(n, input.max_points)?,
             Ok(None) => {}
-            Err(super::points::CountStop::Cancelled) => return Err(PipelineFailure::cancelled()),
+            Err(c) => return Err(PipelineFailure::stopped(c)),
         }
         let options = ReadOptions {
             cancel: progress.cancel(),

@@ -1,55 +1,21 @@
-//! Recognising a cloud's format from its first bytes, before storing it.
+//! Recognising a cloud's format from its first bytes, before storing it. The decision is the
+//! readers' own (`asbuilt_plan::io::detect`, on the same bytes), so an upload is refused here
+//! exactly when the worker's reader would refuse its format.
 
+use asbuilt_plan::io::detect::{self, Format};
 use bytes::{Bytes, BytesMut};
 use futures_util::StreamExt;
 
 use crate::errors::{ApiError, Code};
 use crate::storage::ByteStream;
 
-/// Bytes looked at to recognise a format.
-const HEAD: usize = 1024;
-
-/// The format of a file starting with `head`, if asbuilt reads it.
+/// The format of a file starting with `head`, if asbuilt reads it, as the upload record names
+/// it (`las` covers LAZ).
 pub fn detect(head: &[u8]) -> Option<&'static str> {
-    if head.starts_with(b"ply\n") || head.starts_with(b"ply\r\n") {
-        return Some("ply");
-    }
-    if head.starts_with(b"ASTM-E57") {
-        return Some("e57");
-    }
-    if head.starts_with(b"LASF") {
-        return Some("las");
-    }
-    // Text: the first data line (after `#` or `//` comments) holds three or more numbers, or a
-    // point count (PTS) followed by such a line.
-    let text: &[u8] = match head.iter().position(|&b| b == 0) {
-        Some(_) => return None,
-        None => head,
-    };
-    let text = std::str::from_utf8(text)
-        .or_else(|e| std::str::from_utf8(&text[..e.valid_up_to()]))
-        .ok()?;
-    let mut lines = text
-        .lines()
-        .map(str::trim)
-        .filter(|l| !l.is_empty() && !l.starts_with('#') && !l.starts_with("//"));
-    let numbers = |l: &str| -> Option<usize> {
-        let fields: Vec<&str> = l
-            .split(|c: char| c.is_whitespace() || c == ',' || c == ';')
-            .filter(|f| !f.is_empty())
-            .collect();
-        fields
-            .iter()
-            .all(|f| f.parse::<f64>().is_ok_and(f64::is_finite))
-            .then_some(fields.len())
-    };
-    match numbers(lines.next()?)? {
-        n if n >= 3 => Some("xyz"),
-        1 => match lines.next().and_then(numbers) {
-            Some(n) if n >= 3 => Some("pts"),
-            _ => None,
-        },
-        _ => None,
+    let head = &head[..head.len().min(detect::SNIFF_LEN)];
+    match detect::detect(head).ok()? {
+        Format::Las | Format::Laz => Some("las"),
+        f => Some(f.name()),
     }
 }
 
@@ -57,7 +23,7 @@ pub fn detect(head: &[u8]) -> Option<&'static str> {
 pub async fn sniff(mut body: ByteStream<'_>) -> Result<(&'static str, ByteStream<'_>), ApiError> {
     let mut head = BytesMut::new();
     let mut chunks: Vec<Bytes> = vec![];
-    while head.len() < HEAD {
+    while head.len() < detect::SNIFF_LEN {
         match body.next().await {
             None => break,
             Some(Ok(chunk)) => {
@@ -104,6 +70,27 @@ mod tests {
         assert_eq!(detect(b"hello world, this is text\n"), None);
         assert_eq!(detect(b"1 2\n"), None);
         assert_eq!(detect(b"{\"type\": \"FeatureCollection\"}"), None);
-        assert_eq!(detect(b"nan nan nan\n"), None);
+        // Non-finite rows are the reader's to skip (and count), not a format question.
+        assert_eq!(detect(b"nan nan nan\n"), Some("xyz"));
+    }
+
+    /// The two files the old screen judged differently from the reader (issue 14).
+    #[test]
+    fn the_screen_agrees_with_the_reader() {
+        // A column-name header: the reader reads it, so the upload is accepted.
+        let named = b"x y z\n1.0 2.0 3.0\n4.0 5.0 6.0\n";
+        assert_eq!(detect(named), Some("xyz"));
+        // Four comment lines before the first point: the reader cannot place the format, so
+        // the upload is refused up front rather than failing as `unknown_format` after a 202.
+        let comments = b"# a\n# b\n# c\n# d\n1 2 3\n";
+        assert_eq!(detect(comments), None);
+        for (bytes, accepted) in [(&named[..], true), (&comments[..], false)] {
+            let read = asbuilt_plan::io::read_cloud_from(
+                std::io::Cursor::new(bytes.to_vec()),
+                "upload",
+                &Default::default(),
+            );
+            assert_eq!(read.is_ok(), accepted, "{:?}", read.err());
+        }
     }
 }

@@ -102,6 +102,14 @@ pub fn read_e57<R: Read + Seek>(
     Ok(cloud)
 }
 
+/// The sum of every scan's record count, or `None` when the header or the XML section does
+/// not pass the reader's checks.
+pub(crate) fn declared_points<R: Read + Seek>(mut source: R, len: u64) -> Option<u64> {
+    check_header(&mut source, len, FORMAT).ok()?;
+    let reader = E57Reader::new(source).ok()?;
+    Some(reader.pointclouds().iter().map(|pc| pc.records).sum())
+}
+
 /// The crate's message with its causes, which carry the useful detail.
 fn why(e: &e57::Error) -> String {
     let mut text = e.to_string();

@@ -138,6 +138,23 @@ struct HeaderCheck {
     format: &'static str,
 }
 
+/// The header's point count: the legacy 32-bit field, or the 64-bit one when that is zero.
+fn point_count(raw: &las::raw::Header) -> u64 {
+    let legacy = u64::from(raw.number_of_point_records);
+    match raw.large_file {
+        Some(lf) if legacy == 0 => lf.number_of_point_records,
+        _ => legacy,
+    }
+}
+
+/// The point count the public header declares, as the reader takes it, or `None` when the
+/// header does not parse.
+pub(crate) fn declared_points<R: Read>(source: &mut R) -> Option<u64> {
+    las::raw::Header::read_from(source)
+        .ok()
+        .map(|raw| point_count(&raw))
+}
+
 /// Checks the counts and offsets the `las` and `laz` crates allocate from against the file size.
 fn check_header<R: Read + Seek>(
     source: &mut R,
@@ -157,11 +174,7 @@ fn check_header<R: Read + Seek>(
     let compressed = raw.point_data_record_format & 0xC0 != 0;
     let format = if compressed { "laz" } else { "las" };
     check_transforms(&raw, name, format)?;
-    let legacy = u64::from(raw.number_of_point_records);
-    let points = match raw.large_file {
-        Some(lf) if legacy == 0 => lf.number_of_point_records,
-        _ => legacy,
-    };
+    let points = point_count(&raw);
     let start = u64::from(raw.offset_to_point_data);
     if start > len {
         return Err(ReadError::at(

@@ -2,6 +2,7 @@
 
 mod assemble;
 pub mod chunks;
+mod count;
 pub mod detect;
 pub mod dxf;
 pub mod e57;
@@ -21,6 +22,7 @@ use std::path::Path;
 
 use crate::cancel::{Cancel, Cancelled};
 use crate::cloud::{PointCloud, Viewpoints};
+pub use count::declared_points;
 pub use detect::Format;
 pub use units::{check_units, UnitsError};
 

@@ -40,6 +40,16 @@ pub fn read_ply(path: &Path) -> Result<PointCloud, ReadError> {
     read_ply_from(file, file_len, &path.display().to_string())
 }
 
+/// The vertex count the header declares, or `None` when the header does not parse.
+pub(crate) fn declared_vertices(mut reader: impl BufRead) -> Option<u64> {
+    let header = read_header(&mut reader, Path::new("cloud")).ok()?;
+    header
+        .elements
+        .iter()
+        .find(|e| e.name == "vertex")
+        .map(|e| e.count)
+}
+
 /// Reads PLY from any source of `len` bytes (a file, an upload in memory); `name` is used in
 /// errors. The source is read once, front to back, through a buffer.
 pub fn read_ply_from<R: Read>(source: R, len: u64, name: &str) -> Result<PointCloud, ReadError> {
