@@ -176,6 +176,10 @@ pub const JOB_CODES: &[(&str, &str)] = &[
         "The cloud has more points than the server's limit.",
     ),
     (
+        "wrong_units",
+        "The cloud is far too tall for a building in metres: probably millimetres or centimetres.",
+    ),
+    (
         "invalid_parameter",
         "A parameter was rejected by the pipeline.",
     ),

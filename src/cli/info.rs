@@ -21,12 +21,8 @@ pub struct InfoArgs {
 }
 
 pub fn run(args: InfoArgs) -> anyhow::Result<ExitCode> {
-    let cloud = super::plan::load(
-        &args.input,
-        &args.read.options(true),
-        args.poses.as_deref(),
-        args.trajectory.as_deref(),
-    )?;
+    let sidecar = super::plan::sidecar(args.poses.as_deref(), args.trajectory.as_deref());
+    let cloud = asbuilt_plan::io::read_scan(&args.input, sidecar, &args.read.options(true))?;
     print!("{}", describe(&args.input.display().to_string(), &cloud));
     Ok(ExitCode::SUCCESS)
 }

@@ -6,11 +6,9 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{bail, Context};
-use asbuilt_plan::cloud::PointCloud;
-use asbuilt_plan::io::{self, dxf, geojson, poses, svg, Format, ReadOptions};
-use asbuilt_plan::progress::Stage;
-use asbuilt_plan::streaming::{self, Sidecar, StreamingParams};
-use asbuilt_plan::{FloorPlan, Params};
+use asbuilt_plan::io::{dxf, geojson, svg, Format, ReadOptions, SidecarKind};
+use asbuilt_plan::streaming::StreamingParams;
+use asbuilt_plan::{FloorPlan, Params, Planned, RunError, Scan};
 
 use super::progress::Bar;
 
@@ -98,31 +96,29 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
     for out in [&args.output, &args.svg, &args.dxf].into_iter().flatten() {
         check_writable(out)?;
     }
-    if let Some(budget) = &args.max_memory {
-        return run_streaming(&args, &params, parse_size(budget)?, start);
-    }
-    let bar = Bar::new(args.quiet);
-    bar.stage(Stage::Read);
-    let read_start = Instant::now();
-    let cloud = load(
-        &args.input,
-        &args.read.options(args.trajectory.is_some()),
-        args.poses.as_deref(),
-        args.trajectory.as_deref(),
-    )?;
-    io::check_units(&cloud).with_context(|| format!("{}", args.input.display()))?;
-    let read_ms = read_start.elapsed().as_millis() as u64;
-
-    let mut bar = bar;
-    let result = asbuilt_plan::plan(&cloud, &params, &mut bar);
+    let stream = match &args.max_memory {
+        Some(budget) => Some(StreamingParams {
+            max_memory: parse_size(budget)?,
+            temp_dir: None,
+        }),
+        None => None,
+    };
+    let scan = Scan {
+        cloud: &args.input,
+        sidecar: sidecar(args.poses.as_deref(), args.trajectory.as_deref()),
+        read: args.read.options(args.trajectory.is_some()),
+        params: &params,
+        stream,
+        max_points: None,
+    };
+    let mut bar = Bar::new(args.quiet);
+    let result = asbuilt_plan::plan_scan(&scan, &mut bar);
     bar.finish();
-    let mut plan = result.with_context(|| format!("{}", args.input.display()))?;
-    drop(cloud);
-    add_read_time(&mut plan, read_ms);
-    if let Some(s) = args.read.scale {
-        plan.notes
-            .push(format!("input coordinates were multiplied by {s}"));
-    }
+    let Planned { plan, streamed } = match result {
+        // Read errors name the file at fault (the cloud or its sidecar) themselves.
+        Err(e @ RunError::Read(_)) => return Err(e.into()),
+        other => other.with_context(|| format!("{}", args.input.display()))?,
+    };
 
     let write_start = Instant::now();
     write_outputs(&args, &plan)?;
@@ -133,80 +129,31 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
         write_timings(path, &plan, write_ms, total_ms)?;
     }
     if !args.quiet {
+        if let Some(report) = streamed {
+            eprintln!(
+                "streamed {} points in {} × {} tiles (at most {} points each, halo included), {:.0} MB of tile files",
+                report.points,
+                report.tiles.0,
+                report.tiles.1,
+                report.max_tile_points,
+                report.spilled_bytes as f64 / 1e6
+            );
+        }
         report_plan(&plan, write_ms, total_ms);
     }
     Ok(ExitCode::SUCCESS)
 }
 
-/// `asbuilt plan --max-memory`: two passes over the file, tiles on disk.
-fn run_streaming(
-    args: &PlanArgs,
-    params: &Params,
-    budget: u64,
-    start: Instant,
-) -> anyhow::Result<ExitCode> {
-    let s = args.read.scale.unwrap_or(1.0);
-    let sidecar = match (&args.poses, &args.trajectory) {
-        (Some(path), _) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("reading {}", path.display()))?;
-            let mut scans =
-                poses::parse_poses(&text).with_context(|| format!("{}", path.display()))?;
-            for p in &mut scans {
-                p.position = p.position.map(|c| c * s);
-            }
-            Sidecar::Poses(scans)
-        }
-        (None, Some(path)) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("reading {}", path.display()))?;
-            let mut samples =
-                poses::parse_trajectory(&text).with_context(|| format!("{}", path.display()))?;
-            for p in &mut samples {
-                p.position = p.position.map(|c| c * s);
-            }
-            Sidecar::Trajectory(samples)
-        }
-        (None, None) => Sidecar::None,
-    };
-    let stream = StreamingParams {
-        max_memory: budget,
-        temp_dir: None,
-    };
-    let mut bar = Bar::new(args.quiet);
-    let result = streaming::plan_file(
-        &args.input,
-        &args.read.options(args.trajectory.is_some()),
-        sidecar,
-        params,
-        &stream,
-        &mut bar,
-    );
-    bar.finish();
-    let (mut plan, report) = result.with_context(|| format!("{}", args.input.display()))?;
-    if let Some(s) = args.read.scale {
-        plan.notes
-            .push(format!("input coordinates were multiplied by {s}"));
+/// The sidecar the flags name (clap lets at most one through).
+pub(super) fn sidecar<'a>(
+    poses: Option<&'a Path>,
+    trajectory: Option<&'a Path>,
+) -> Option<(SidecarKind, &'a Path)> {
+    match (poses, trajectory) {
+        (Some(p), _) => Some((SidecarKind::Poses, p)),
+        (None, Some(t)) => Some((SidecarKind::Trajectory, t)),
+        (None, None) => None,
     }
-    let write_start = Instant::now();
-    write_outputs(args, &plan)?;
-    let write_ms = write_start.elapsed().as_millis() as u64;
-    let total_ms = start.elapsed().as_millis() as u64;
-    if let Some(path) = &args.timings {
-        write_timings(path, &plan, write_ms, total_ms)?;
-    }
-    if !args.quiet {
-        eprintln!(
-            "streamed {} points in {} × {} tiles (at most {} points each, halo included), {:.0} MB of tile files",
-            report.points,
-            report.tiles.0,
-            report.tiles.1,
-            report.max_tile_points,
-            report.spilled_bytes as f64 / 1e6
-        );
-        report_plan(&plan, write_ms, total_ms);
-    }
-    Ok(ExitCode::SUCCESS)
 }
 
 /// `1GiB`, `512MiB`, `2G` (binary), `1.5GB` (decimal), or plain bytes.
@@ -295,48 +242,11 @@ fn check_writable(path: &Path) -> anyhow::Result<()> {
     }
 }
 
-/// Reads the cloud and attaches a pose or trajectory sidecar, naming the file on failure.
-/// Sidecars are in the file's units, so they get the same scale as the points.
-pub(super) fn load(
-    input: &Path,
-    options: &ReadOptions,
-    poses_file: Option<&Path>,
-    trajectory_file: Option<&Path>,
-) -> anyhow::Result<PointCloud> {
-    let mut cloud = io::read_cloud_with(input, options)?;
-    let s = options.scale.unwrap_or(1.0);
-    // The sidecar readers cap the file size and name the file in their errors.
-    if let Some(path) = poses_file {
-        let mut scans = poses::read_poses(path)?;
-        for p in &mut scans {
-            p.position = p.position.map(|c| c * s);
-        }
-        poses::attach_poses(&mut cloud, scans).with_context(|| format!("{}", path.display()))?;
-    }
-    if let Some(path) = trajectory_file {
-        let mut samples = poses::read_trajectory(path)?;
-        for p in &mut samples {
-            p.position = p.position.map(|c| c * s);
-        }
-        poses::attach_trajectory(&mut cloud, samples)
-            .with_context(|| format!("{}", path.display()))?;
-    }
-    Ok(cloud)
-}
-
 fn check_scale(s: f64) -> anyhow::Result<()> {
     if !(s.is_finite() && s > 0.0) {
         bail!("--scale must be a positive number, not {s}");
     }
     Ok(())
-}
-
-/// Puts the read time first in `timings_ms` and counts it in the total, as the contract shows.
-fn add_read_time(plan: &mut FloorPlan, read_ms: u64) {
-    plan.timings_ms.insert(0, ("read".into(), read_ms));
-    if let Some((_, total)) = plan.timings_ms.iter_mut().find(|(n, _)| n == "total") {
-        *total += read_ms;
-    }
 }
 
 fn write_outputs(args: &PlanArgs, plan: &FloorPlan) -> anyhow::Result<()> {
@@ -506,21 +416,5 @@ mod tests {
         assert!(parse_size("lots").is_err());
         assert!(parse_size("1 parsec").is_err());
         assert!(parse_size("0").is_err());
-    }
-
-    #[test]
-    fn read_time_leads_and_counts_in_the_total() {
-        let mut plan = FloorPlan {
-            origin: [0.0; 3],
-            crs: None,
-            input: Default::default(),
-            parameters: serde_json::json!({}),
-            timings_ms: vec![("stories".into(), 4), ("total".into(), 10)],
-            stories: vec![],
-            notes: vec![],
-        };
-        add_read_time(&mut plan, 7);
-        assert_eq!(plan.timings_ms[0], ("read".to_string(), 7));
-        assert_eq!(plan.timings_ms[2], ("total".to_string(), 17));
     }
 }

@@ -28,11 +28,6 @@ impl Bar {
         Bar(bar)
     }
 
-    /// Announces a stage the CLI runs itself (reading, writing).
-    pub fn stage(&self, stage: Stage) {
-        self.0.set_message(stage.name());
-    }
-
     pub fn finish(&self) {
         self.0.finish_and_clear();
     }

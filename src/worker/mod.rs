@@ -174,7 +174,7 @@ impl Workers {
             .upload
             .sidecar
             .as_deref()
-            .and_then(SidecarKind::from_name)
+            .and_then(|name| name.parse::<SidecarKind>().ok())
         {
             Some(kind) => Some((kind, fetch(keys::sidecar(job.id), "sidecar.json").await?)),
             None => None,

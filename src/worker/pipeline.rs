@@ -2,39 +2,15 @@
 //! the real one (`asbuilt-plan`); tests and `--fake-pipeline-ms` substitute others.
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
-use asbuilt_plan::io::ReadOptions;
-use asbuilt_plan::io::{self, dxf, geojson, poses, svg};
+use asbuilt_plan::io::{dxf, geojson, svg, ReadOptions};
 use asbuilt_plan::progress::{Progress, Stage};
-use asbuilt_plan::{Cancelled, Params};
+use asbuilt_plan::{plan_scan, Cancelled, Params, Planned, RunError, Scan};
 
 use crate::queue::JobId;
 
-/// Which kind of sidecar came with the cloud.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SidecarKind {
-    Poses,
-    Trajectory,
-}
-
-impl SidecarKind {
-    /// The multipart part name, also stored in the job's upload record.
-    pub fn name(self) -> &'static str {
-        match self {
-            SidecarKind::Poses => "poses",
-            SidecarKind::Trajectory => "trajectory",
-        }
-    }
-
-    pub fn from_name(name: &str) -> Option<SidecarKind> {
-        match name {
-            "poses" => Some(SidecarKind::Poses),
-            "trajectory" => Some(SidecarKind::Trajectory),
-            _ => None,
-        }
-    }
-}
+/// The sidecar kinds are the pipeline's own.
+pub use asbuilt_plan::io::SidecarKind;
 
 /// A job's inputs, as local files.
 #[derive(Debug, Clone)]
@@ -104,16 +80,20 @@ pub trait Pipeline: Send + Sync + 'static {
 
 /// The point-count limit, shared by every pipeline.
 pub fn check_points(points: u64, max: u64) -> Result<(), PipelineFailure> {
-    if points > max {
-        return Err(PipelineFailure::new(
-            "too_many_points",
-            format!("the cloud has {points} points; this server accepts at most {max}"),
-        ));
+    match points > max {
+        true => Err(too_many_points(points, max)),
+        false => Ok(()),
     }
-    Ok(())
 }
 
-/// The real pipeline: read, attach sidecar, plan, write GeoJSON, SVG and DXF.
+fn too_many_points(points: u64, max: u64) -> PipelineFailure {
+    PipelineFailure::new(
+        "too_many_points",
+        format!("the cloud has {points} points; this server accepts at most {max}"),
+    )
+}
+
+/// The real pipeline: `asbuilt_plan`'s front door, then GeoJSON, SVG and DXF.
 pub struct PlanPipeline;
 
 /// Messages from readers name the file; the user knows it as "the cloud", not a server path.
@@ -127,48 +107,15 @@ impl Pipeline for PlanPipeline {
         input: &JobInput,
         progress: &mut dyn Progress,
     ) -> Result<JobResults, PipelineFailure> {
-        progress.report(Stage::Read, 0.0);
-        let read_start = Instant::now();
-        // Refuse an over-limit cloud before the reader allocates it.
-        match io::declared_points(&input.cloud, &progress.cancel()) {
-            Ok(Some(n)) => check_points(n, input.max_points)?,
-            Ok(None) => {}
-            Err(c) => return Err(PipelineFailure::stopped(c)),
-        }
-        let options = ReadOptions {
-            cancel: progress.cancel(),
-            ..ReadOptions::default()
+        let scan = Scan {
+            cloud: &input.cloud,
+            sidecar: input.sidecar.as_ref().map(|(k, p)| (*k, p.as_path())),
+            read: ReadOptions::default(),
+            params: &input.params,
+            stream: None,
+            max_points: Some(input.max_points),
         };
-        let mut cloud = io::read_cloud_with(&input.cloud, &options).map_err(|e| match e {
-            io::ReadError::Cancelled(c, _) => PipelineFailure::stopped(c),
-            e => PipelineFailure::new(e.code(), hide_path(e.to_string(), &input.cloud, "cloud")),
-        })?;
-        check_points(cloud.len() as u64, input.max_points)?;
-        if let Some((kind, path)) = &input.sidecar {
-            // The readers cap the sidecar's size; the message names the part, not our path.
-            let loaded = match kind {
-                SidecarKind::Poses => poses::load_poses(&mut cloud, path),
-                SidecarKind::Trajectory => poses::load_trajectory(&mut cloud, path),
-            };
-            loaded.map_err(|e| {
-                PipelineFailure::new("invalid_poses", hide_path(e.to_string(), path, kind.name()))
-            })?;
-        }
-        let read_ms = read_start.elapsed().as_millis() as u64;
-        if let Err(c) = progress.cancel().check() {
-            return Err(PipelineFailure::stopped(c));
-        }
-        let mut plan = asbuilt_plan::plan(&cloud, &input.params, progress).map_err(|e| match e
-            .cancelled()
-        {
-            Some(c) => PipelineFailure::stopped(c),
-            None => PipelineFailure::new(e.code(), e.to_string()),
-        })?;
-        drop(cloud);
-        plan.timings_ms.insert(0, ("read".into(), read_ms));
-        if let Some((_, total)) = plan.timings_ms.iter_mut().find(|(n, _)| n == "total") {
-            *total += read_ms;
-        }
+        let Planned { plan, .. } = plan_scan(&scan, progress).map_err(|e| failure(e, input))?;
         progress.report(Stage::Write, 1.0);
         let dxf = dxf::to_dxf(&plan)
             .map_err(|e| PipelineFailure::new("output_failed", format!("DXF: {e}")))?;
@@ -180,4 +127,20 @@ impl Pipeline for PlanPipeline {
             dxf,
         })
     }
+}
+
+/// The job's failure: stops as stops, the limit in the server's words, and every message with
+/// the server's paths replaced by the names the client knows.
+fn failure(e: RunError, input: &JobInput) -> PipelineFailure {
+    if let Some(c) = e.cancelled() {
+        return PipelineFailure::stopped(c);
+    }
+    if let RunError::TooManyPoints { points, max } = e {
+        return too_many_points(points, max);
+    }
+    let mut message = hide_path(e.to_string(), &input.cloud, "cloud");
+    if let Some((kind, path)) = &input.sidecar {
+        message = hide_path(message, path, kind.name());
+    }
+    PipelineFailure::new(e.code(), message)
 }

@@ -6,6 +6,7 @@
 //! [`io`] touches files.
 //!
 //! # Layout
+//! - [`run::plan_scan`] is the front door: a scan file and its sidecar in, the plan out.
 //! - [`pipeline::plan`] runs the stages in order:
 //!   [`stories`] → [`samples`] → [`smoothing`] → [`labeling`] → [`cleanup`] → [`boundary`] → [`fitting`].
 //! - [`params::Params`] holds every stage's parameters, with the paper's defaults and each
@@ -29,6 +30,7 @@ pub mod params;
 pub mod pipeline;
 pub mod plan;
 pub mod progress;
+pub mod run;
 pub mod samples;
 pub mod simulate;
 pub mod smoothing;
@@ -42,3 +44,4 @@ pub use cloud::PointCloud;
 pub use params::Params;
 pub use pipeline::{plan, PlanError};
 pub use plan::FloorPlan;
+pub use run::{plan_scan, Planned, RunError, Scan};

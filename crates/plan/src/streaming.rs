@@ -19,10 +19,11 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use crate::cancel::Cancel;
-use crate::cloud::{PointCloud, ScanPose, TrajectorySample};
+use crate::cloud::PointCloud;
 use crate::io::chunks::{open_chunks, PointChunk};
 use crate::io::poses::{attach_poses, attach_trajectory, PosesError};
 use crate::io::spill::{SpillError, TileStore};
+use crate::io::Sidecar;
 use crate::io::{check_units, ReadError, ReadOptions, UnitsError};
 use crate::params::Params;
 use crate::pipeline::{plan_stories, CloudSummary, PlanError, Timings};
@@ -72,15 +73,6 @@ pub enum StreamingError {
     Budget { budget: u64, why: String },
 }
 
-/// Scanner positions from a sidecar, in world coordinates (already scaled to metres).
-#[derive(Debug, Clone, Default, PartialEq)]
-pub enum Sidecar {
-    #[default]
-    None,
-    Poses(Vec<ScanPose>),
-    Trajectory(Vec<TrajectorySample>),
-}
-
 /// How the streamed run went.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StreamReport {
@@ -105,11 +97,12 @@ const MAX_TILES: usize = 1024;
 /// Memory set aside for what the model does not count: samples, the histogram, reader buffers.
 const SLACK: f64 = 0.25;
 
-/// Makes the floor plan of the cloud in `path` within `stream.max_memory`.
+/// Makes the floor plan of the cloud in `path` within `stream.max_memory`. The sidecar's
+/// positions are in world coordinates, already scaled to metres.
 pub fn plan_file(
     path: &std::path::Path,
     read: &ReadOptions,
-    sidecar: Sidecar,
+    sidecar: Option<Sidecar>,
     params: &Params,
     stream: &StreamingParams,
     progress: &mut dyn Progress,
@@ -118,7 +111,7 @@ pub fn plan_file(
     let cancel = progress.cancel();
     let stop = || -> Result<(), StreamingError> { Ok(cancel.check().map_err(PlanError::from)?) };
     let mut timings = Timings::default();
-    let keep_time = matches!(sidecar, Sidecar::Trajectory(_));
+    let keep_time = matches!(sidecar, Some(Sidecar::Trajectory(_)));
     let read = ReadOptions {
         keep_time,
         ..read.clone()
@@ -311,10 +304,14 @@ fn ms(since: Instant) -> f64 {
 const UNITS_SAMPLE: usize = 100_000;
 
 /// Attaches the sidecar to the cloud's skeleton, as the whole-cloud run attaches it to the cloud.
-fn attach(skeleton: &mut PointCloud, sidecar: Sidecar, survey: &Survey) -> Result<(), PosesError> {
+fn attach(
+    skeleton: &mut PointCloud,
+    sidecar: Option<Sidecar>,
+    survey: &Survey,
+) -> Result<(), PosesError> {
     match sidecar {
-        Sidecar::None => Ok(()),
-        Sidecar::Poses(p) => {
+        None => Ok(()),
+        Some(Sidecar::Poses(p)) => {
             let no_scans = skeleton.scan_ids.is_empty();
             attach_poses(skeleton, p)?;
             // Without scan indices one pose sees every point; the tiles carry no slots then.
@@ -323,7 +320,7 @@ fn attach(skeleton: &mut PointCloud, sidecar: Sidecar, survey: &Survey) -> Resul
             }
             Ok(())
         }
-        Sidecar::Trajectory(t) => {
+        Some(Sidecar::Trajectory(t)) => {
             // The trajectory's span is checked against the points' earliest and latest times.
             skeleton.time = if survey.has_time {
                 vec![survey.time.0, survey.time.1]

@@ -4,10 +4,11 @@
 use std::path::Path;
 
 use asbuilt_plan::cloud::{PointCloud, ScanPose, Viewpoints};
+use asbuilt_plan::io::Sidecar;
 use asbuilt_plan::io::{self, chunks, export, ply, poses, ReadOptions};
 use asbuilt_plan::progress::NoProgress;
 use asbuilt_plan::simulate::{simulate, BuildingKind, ScanOptions};
-use asbuilt_plan::streaming::{plan_file, Sidecar, StreamingError, StreamingParams};
+use asbuilt_plan::streaming::{plan_file, StreamingError, StreamingParams};
 use asbuilt_plan::{FloorPlan, Params};
 
 /// A small three-story office, written as binary PLY, with its poses in world coordinates.
@@ -83,7 +84,7 @@ fn streaming_in_small_tiles_gives_the_in_memory_plan() {
     let (streamed, report) = plan_file(
         &path,
         &ReadOptions::default(),
-        Sidecar::Poses(world.clone()),
+        Some(Sidecar::Poses(world.clone())),
         &params,
         &stream,
         &mut NoProgress,
@@ -112,7 +113,7 @@ fn streaming_in_small_tiles_gives_the_in_memory_plan() {
     let (one, report) = plan_file(
         &path,
         &ReadOptions::default(),
-        Sidecar::Poses(world),
+        Some(Sidecar::Poses(world)),
         &params,
         &StreamingParams::default(),
         &mut NoProgress,
@@ -162,7 +163,7 @@ fn bad_budgets_and_unchunked_formats_are_clear_errors() {
     let err = plan_file(
         &path,
         &ReadOptions::default(),
-        Sidecar::Poses(world),
+        Some(Sidecar::Poses(world)),
         &Params::default(),
         &tiny,
         &mut NoProgress,
@@ -176,7 +177,7 @@ fn bad_budgets_and_unchunked_formats_are_clear_errors() {
     let err = plan_file(
         &e57,
         &ReadOptions::default(),
-        Sidecar::None,
+        None,
         &Params::default(),
         &StreamingParams::default(),
         &mut NoProgress,

@@ -376,7 +376,7 @@ async fn receive_multipart(
                     .put(&keys::sidecar(id), bytes)
                     .await
                     .map_err(blob_error)?;
-                got.sidecar = SidecarKind::from_name(&name);
+                got.sidecar = name.parse::<SidecarKind>().ok();
             }
             "params" => {
                 let bytes = read_small(field, &name, small).await?;

@@ -11,6 +11,7 @@ pub mod geojson;
 pub mod las;
 pub mod ply;
 pub mod poses;
+pub(crate) mod sidecar;
 pub mod spill;
 pub mod svg;
 mod units;
@@ -24,6 +25,7 @@ use crate::cancel::{Cancel, Cancelled};
 use crate::cloud::{PointCloud, Viewpoints};
 pub use count::declared_points;
 pub use detect::Format;
+pub use sidecar::{Sidecar, SidecarKind};
 pub use units::{check_units, UnitsError};
 
 /// Why a file could not be read. Every variant names the file and, where it helps, the place.
@@ -170,6 +172,22 @@ pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<PointCloud,
         }
     }
     finish(cloud, &name, options)
+}
+
+/// Reads a point cloud and attaches its sidecar, scaled as the cloud is; errors name the file
+/// at fault.
+pub fn read_scan(
+    path: &Path,
+    sidecar: Option<(SidecarKind, &Path)>,
+    options: &ReadOptions,
+) -> Result<PointCloud, ReadError> {
+    let mut cloud = read_cloud_with(path, options)?;
+    if let Some((kind, file)) = sidecar {
+        sidecar::read_scaled(kind, file, options.scale)?
+            .attach(&mut cloud)
+            .map_err(|e| sidecar::misfit(file, e))?;
+    }
+    Ok(cloud)
 }
 
 /// Reads a point cloud from any seekable source (an upload held in memory, say); `name` is

@@ -1,0 +1,264 @@
+//! The front door: a scan file and its sidecar in, the floor plan with every stage's time out.
+//! The CLI (in memory and streamed) and the service's worker call [`plan_scan`] and nothing
+//! else, so the point limit, the sidecar's size cap and scale, and the units check hold for all.
+
+use std::path::Path;
+use std::time::Instant;
+
+use crate::cancel::Cancelled;
+use crate::io::{self, ReadError, ReadOptions, SidecarKind, UnitsError};
+use crate::params::Params;
+use crate::pipeline::{self, PlanError};
+use crate::plan::FloorPlan;
+use crate::progress::{Progress, Stage};
+use crate::streaming::{self, StreamReport, StreamingError, StreamingParams};
+
+/// What to plan and how.
+#[derive(Debug, Clone)]
+pub struct Scan<'a> {
+    /// The point cloud file (any format [`io::detect`] knows).
+    pub cloud: &'a Path,
+    /// The sidecar file beside it, if any.
+    pub sidecar: Option<(SidecarKind, &'a Path)>,
+    /// How to read the cloud; its `cancel` is replaced by the progress's.
+    pub read: ReadOptions,
+    pub params: &'a Params,
+    /// Stream the file within this budget instead of holding it whole (`plan --max-memory`).
+    pub stream: Option<StreamingParams>,
+    /// Clouds with more points are refused, from their header when it tells.
+    pub max_points: Option<u64>,
+}
+
+/// A finished run.
+#[derive(Debug, Clone)]
+pub struct Planned {
+    /// `timings_ms` starts with `read` and ends with `total`, which counts the read.
+    pub plan: FloorPlan,
+    /// How the streamed run went, when it was streamed.
+    pub streamed: Option<StreamReport>,
+}
+
+/// Why a scan could not be planned.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The cloud or its sidecar could not be read (the message names the file).
+    #[error(transparent)]
+    Read(#[from] ReadError),
+    #[error("the cloud has {points} points, more than the limit of {max}")]
+    TooManyPoints { points: u64, max: u64 },
+    #[error(transparent)]
+    Units(#[from] UnitsError),
+    #[error(transparent)]
+    Plan(#[from] PlanError),
+    /// The streamed run's own failures (tile files, the memory budget).
+    #[error(transparent)]
+    Streaming(StreamingError),
+}
+
+impl RunError {
+    /// A stable machine-readable code for the service's error bodies.
+    pub fn code(&self) -> &'static str {
+        match self {
+            RunError::Read(e) => e.code(),
+            RunError::TooManyPoints { .. } => "too_many_points",
+            RunError::Units(_) => "wrong_units",
+            RunError::Plan(e) => e.code(),
+            RunError::Streaming(_) => "streaming_failed",
+        }
+    }
+
+    /// Why the run was stopped from outside, if it was.
+    pub fn cancelled(&self) -> Option<Cancelled> {
+        match self {
+            RunError::Read(ReadError::Cancelled(c, _)) => Some(*c),
+            RunError::Plan(e) => e.cancelled(),
+            _ => None,
+        }
+    }
+}
+
+impl From<StreamingError> for RunError {
+    /// The streamed run's read, units and plan errors are the in-memory run's.
+    fn from(e: StreamingError) -> RunError {
+        match e {
+            StreamingError::Read(e) => RunError::Read(e),
+            StreamingError::Units(e) => RunError::Units(e),
+            StreamingError::Plan(e) => RunError::Plan(e),
+            e => RunError::Streaming(e),
+        }
+    }
+}
+
+/// Reads the scan, plans it, and times every step, reading included.
+pub fn plan_scan(scan: &Scan<'_>, progress: &mut dyn Progress) -> Result<Planned, RunError> {
+    progress.report(Stage::Read, 0.0);
+    let start = Instant::now();
+    let read = ReadOptions {
+        cancel: progress.cancel(),
+        ..scan.read.clone()
+    };
+    if let Some(max) = scan.max_points {
+        // Refuse an over-limit cloud before the reader allocates it.
+        let declared = io::declared_points(scan.cloud, &read.cancel)
+            .map_err(|c| ReadError::Cancelled(c, scan.cloud.display().to_string()))?;
+        check_points(declared.unwrap_or(0), max)?;
+    }
+    let mut planned = match &scan.stream {
+        None => {
+            let cloud = io::read_scan(scan.cloud, scan.sidecar, &read)?;
+            if let Some(max) = scan.max_points {
+                check_points(cloud.len() as u64, max)?;
+            }
+            io::check_units(&cloud)?;
+            let read_ms = ms(start);
+            progress.cancel().check().map_err(PlanError::from)?;
+            let mut plan = pipeline::plan(&cloud, scan.params, progress)?;
+            add_time(&mut plan, Stage::Read.name(), read_ms);
+            Planned {
+                plan,
+                streamed: None,
+            }
+        }
+        Some(stream) => {
+            let sidecar = scan
+                .sidecar
+                .map(|(kind, path)| io::sidecar::read_scaled(kind, path, read.scale))
+                .transpose()?;
+            let sidecar_ms = ms(start);
+            let (mut plan, report) =
+                streaming::plan_file(scan.cloud, &read, sidecar, scan.params, stream, progress)
+                    .map_err(|e| match (e, scan.sidecar) {
+                        // A sidecar that does not fit the cloud is named, as in memory.
+                        (StreamingError::Poses(e), Some((_, path))) => {
+                            RunError::Read(io::sidecar::misfit(path, e))
+                        }
+                        (e, _) => RunError::from(e),
+                    })?;
+            add_time(&mut plan, Stage::Read.name(), sidecar_ms);
+            if let Some(max) = scan.max_points {
+                check_points(report.points, max)?;
+            }
+            Planned {
+                plan,
+                streamed: Some(report),
+            }
+        }
+    };
+    if let Some(s) = read.scale {
+        planned
+            .plan
+            .notes
+            .push(format!("input coordinates were multiplied by {s}"));
+    }
+    Ok(planned)
+}
+
+fn check_points(points: u64, max: u64) -> Result<(), RunError> {
+    match points > max {
+        true => Err(RunError::TooManyPoints { points, max }),
+        false => Ok(()),
+    }
+}
+
+fn ms(since: Instant) -> u64 {
+    since.elapsed().as_millis() as u64
+}
+
+/// Adds `ms` to the stage `name` (first in `timings_ms` when new) and to the total.
+fn add_time(plan: &mut FloorPlan, name: &str, ms: u64) {
+    match plan.timings_ms.iter_mut().find(|(n, _)| n == name) {
+        Some((_, t)) => *t += ms,
+        None => plan.timings_ms.insert(0, (name.to_string(), ms)),
+    }
+    if let Some((_, total)) = plan.timings_ms.iter_mut().find(|(n, _)| n == "total") {
+        *total += ms;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::progress::NoProgress;
+
+    fn plan_with(timings: Vec<(&str, u64)>) -> FloorPlan {
+        FloorPlan {
+            origin: [0.0; 3],
+            crs: None,
+            input: Default::default(),
+            parameters: serde_json::json!({}),
+            timings_ms: timings.into_iter().map(|(n, t)| (n.into(), t)).collect(),
+            stories: vec![],
+            notes: vec![],
+        }
+    }
+
+    #[test]
+    fn read_time_leads_and_counts_in_the_total() {
+        let mut plan = plan_with(vec![("stories", 4), ("total", 10)]);
+        add_time(&mut plan, "read", 7);
+        assert_eq!(plan.timings_ms[0], ("read".to_string(), 7));
+        assert_eq!(plan.timings_ms[2], ("total".to_string(), 17));
+        // A streamed run timed its reading already: the sidecar's time is added to it.
+        add_time(&mut plan, "read", 3);
+        assert_eq!(plan.timings_ms[0], ("read".to_string(), 10));
+        assert_eq!(plan.timings_ms[2], ("total".to_string(), 20));
+    }
+
+    #[test]
+    fn limits_and_units_hold_in_both_modes() {
+        let dir = tempfile::tempdir().unwrap();
+        // A 2 x 2 x 2.5 km box of points: millimetres read as metres.
+        let world: Vec<[f64; 3]> = (0..2000)
+            .map(|i| {
+                [
+                    (i % 2000) as f64,
+                    ((i * 7) % 2000) as f64,
+                    ((i * 13) % 2500) as f64,
+                ]
+            })
+            .collect();
+        let path = dir.path().join("mm.ply");
+        let cloud = crate::cloud::PointCloud::from_world(&world);
+        io::ply::write_ply(&path, &cloud, io::ply::Encoding::BinaryLittleEndian).unwrap();
+        let params = Params::default();
+        for stream in [None, Some(StreamingParams::default())] {
+            let mut scan = Scan {
+                cloud: &path,
+                sidecar: None,
+                read: ReadOptions::default(),
+                params: &params,
+                stream: stream.clone(),
+                max_points: Some(1999),
+            };
+            let err = plan_scan(&scan, &mut NoProgress).unwrap_err();
+            assert_eq!(err.code(), "too_many_points", "{err}");
+            scan.max_points = Some(2000);
+            let err = plan_scan(&scan, &mut NoProgress).unwrap_err();
+            assert_eq!(err.code(), "wrong_units", "{err}");
+        }
+    }
+
+    #[test]
+    fn an_oversized_sidecar_is_refused_in_both_modes() {
+        let dir = tempfile::tempdir().unwrap();
+        let cloud = dir.path().join("c.xyz");
+        std::fs::write(&cloud, "0 0 0\n1 1 1\n").unwrap();
+        let poses = dir.path().join("p.json");
+        let file = std::fs::File::create(&poses).unwrap();
+        file.set_len(io::poses::MAX_POSES_BYTES + 1).unwrap();
+        let params = Params::default();
+        for stream in [None, Some(StreamingParams::default())] {
+            let scan = Scan {
+                cloud: &cloud,
+                sidecar: Some((SidecarKind::Poses, &poses)),
+                read: ReadOptions::default(),
+                params: &params,
+                stream,
+                max_points: None,
+            };
+            let err = plan_scan(&scan, &mut NoProgress).unwrap_err();
+            assert_eq!(err.code(), "invalid_poses", "{err}");
+            assert!(err.to_string().contains("more than the"), "{err}");
+        }
+    }
+}
