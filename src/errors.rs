@@ -159,53 +159,103 @@ impl Code {
     }
 }
 
-/// Every code a failed job can carry in `error.code`, and what it means.
-pub const JOB_CODES: &[(&str, &str)] = &[
-    (
-        "unknown_format",
-        "The file's content is not a format the readers know.",
-    ),
-    ("invalid_file", "The cloud file is damaged or inconsistent."),
-    (
-        "invalid_poses",
-        "The pose or trajectory sidecar does not fit the cloud.",
-    ),
-    ("io_error", "The cloud could not be read from storage."),
-    (
-        "too_many_points",
-        "The cloud has more points than the server's limit.",
-    ),
-    (
-        "wrong_units",
-        "The cloud is far too tall for a building in metres: probably millimetres or centimetres.",
-    ),
-    (
-        "invalid_parameter",
-        "A parameter was rejected by the pipeline.",
-    ),
-    ("empty_cloud", "The cloud has no points."),
-    ("bad_cloud", "The cloud is inconsistent."),
-    ("no_stories", "No story (floor and ceiling pair) was found."),
-    ("samples_failed", "Wall sampling failed."),
-    ("smoothing_failed", "Sample smoothing failed."),
-    ("labeling_failed", "Inside/outside labeling failed."),
-    ("boundary_failed", "Boundary tracing failed."),
-    ("fitting_failed", "Wall fitting failed."),
-    ("no_plan", "No story produced a plan."),
-    ("output_failed", "A result file could not be written."),
-    (
-        "time_limit",
-        "The job ran longer than the server's time limit.",
-    ),
-    (
-        "worker_lost",
-        "The job's worker stopped responding too many times.",
-    ),
-    (
-        "pipeline_panic",
-        "The pipeline crashed on this input (a bug: please report it).",
-    ),
+/// Every code a job's `error.code` can carry. Codes are a promise to clients: add new ones,
+/// never rename.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum JobCode {
+    UnknownFormat,
+    InvalidFile,
+    InvalidPoses,
+    IoError,
+    TooManyPoints,
+    WrongUnits,
+    InvalidParameter,
+    EmptyCloud,
+    BadCloud,
+    NoStories,
+    SamplesFailed,
+    SmoothingFailed,
+    LabelingFailed,
+    BoundaryFailed,
+    FittingFailed,
+    NoPlan,
+    OutputFailed,
+    TimeLimit,
+    WorkerLost,
+    PipelinePanic,
+    /// A run stopped on request: the job is `cancelled`, not failed, and shows no error.
+    Cancelled,
+}
+
+/// Every code a failed job can carry, in the order the OpenAPI document lists them.
+pub const JOB_CODES: [JobCode; 20] = [
+    JobCode::UnknownFormat,
+    JobCode::InvalidFile,
+    JobCode::InvalidPoses,
+    JobCode::IoError,
+    JobCode::TooManyPoints,
+    JobCode::WrongUnits,
+    JobCode::InvalidParameter,
+    JobCode::EmptyCloud,
+    JobCode::BadCloud,
+    JobCode::NoStories,
+    JobCode::SamplesFailed,
+    JobCode::SmoothingFailed,
+    JobCode::LabelingFailed,
+    JobCode::BoundaryFailed,
+    JobCode::FittingFailed,
+    JobCode::NoPlan,
+    JobCode::OutputFailed,
+    JobCode::TimeLimit,
+    JobCode::WorkerLost,
+    JobCode::PipelinePanic,
 ];
+
+impl JobCode {
+    /// The code as sent.
+    pub fn as_str(self) -> &'static str {
+        self.describe().0
+    }
+
+    /// What it means, for documents.
+    pub fn meaning(self) -> &'static str {
+        self.describe().1
+    }
+
+    /// The code a pipeline reported by name, if the service knows it.
+    pub fn parse(code: &str) -> Option<JobCode> {
+        JOB_CODES
+            .into_iter()
+            .chain([JobCode::Cancelled])
+            .find(|c| c.as_str() == code)
+    }
+
+    fn describe(self) -> (&'static str, &'static str) {
+        match self {
+            JobCode::UnknownFormat => ("unknown_format", "The file's content is not a format the readers know."),
+            JobCode::InvalidFile => ("invalid_file", "The cloud file is damaged or inconsistent."),
+            JobCode::InvalidPoses => ("invalid_poses", "The pose or trajectory sidecar does not fit the cloud."),
+            JobCode::IoError => ("io_error", "The cloud could not be read from storage."),
+            JobCode::TooManyPoints => ("too_many_points", "The cloud has more points than the server's limit."),
+            JobCode::WrongUnits => ("wrong_units", "The cloud is far too tall for a building in metres: probably millimetres or centimetres."),
+            JobCode::InvalidParameter => ("invalid_parameter", "A parameter was rejected by the pipeline."),
+            JobCode::EmptyCloud => ("empty_cloud", "The cloud has no points."),
+            JobCode::BadCloud => ("bad_cloud", "The cloud is inconsistent."),
+            JobCode::NoStories => ("no_stories", "No story (floor and ceiling pair) was found."),
+            JobCode::SamplesFailed => ("samples_failed", "Wall sampling failed."),
+            JobCode::SmoothingFailed => ("smoothing_failed", "Sample smoothing failed."),
+            JobCode::LabelingFailed => ("labeling_failed", "Inside/outside labeling failed."),
+            JobCode::BoundaryFailed => ("boundary_failed", "Boundary tracing failed."),
+            JobCode::FittingFailed => ("fitting_failed", "Wall fitting failed."),
+            JobCode::NoPlan => ("no_plan", "No story produced a plan."),
+            JobCode::OutputFailed => ("output_failed", "A result file could not be written."),
+            JobCode::TimeLimit => ("time_limit", "The job ran longer than the server's time limit."),
+            JobCode::WorkerLost => ("worker_lost", "The job's worker stopped responding too many times."),
+            JobCode::PipelinePanic => ("pipeline_panic", "The pipeline crashed on this input (a bug: please report it)."),
+            JobCode::Cancelled => ("cancelled", "The job was cancelled."),
+        }
+    }
+}
 
 /// Messages and parameter names echo what the client sent; past these many characters they are
 /// cut, so a hostile request cannot make its answer huge.
@@ -332,6 +382,22 @@ impl From<crate::storage::BlobError> for ApiError {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn job_codes_parse_back_and_cover_the_pipelines() {
+        for code in JOB_CODES.into_iter().chain([JobCode::Cancelled]) {
+            assert_eq!(JobCode::parse(code.as_str()), Some(code));
+            assert!(!code.meaning().is_empty());
+        }
+        // Every code the pipeline's stage table can give is one the service documents.
+        for row in asbuilt_plan::progress::STAGES {
+            if let Some(code) = row.error_code {
+                assert!(JobCode::parse(code).is_some(), "{code}");
+            }
+        }
+        assert_eq!(JobCode::parse("time_limit"), Some(JobCode::TimeLimit));
+        assert_eq!(JobCode::parse("nonsense"), None);
+    }
 
     #[test]
     fn codes_are_unique_and_statuses_valid() {

@@ -15,6 +15,46 @@ pub fn document() -> &'static serde_json::Value {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use asbuilt_plan::progress::STAGES;
+
+    /// The page, the document's `Stage` enum and its job error codes follow the pipeline's
+    /// stage table.
+    #[test]
+    fn stage_names_and_codes_follow_the_table() {
+        let names: Vec<&str> = STAGES.iter().map(|r| r.name).collect();
+        let doc = &document()["components"]["schemas"];
+        let stated: Vec<&str> = doc["Stage"]["enum"]
+            .as_array()
+            .expect("a Stage enum")
+            .iter()
+            .filter_map(|v| v.as_str())
+            .collect();
+        assert_eq!(stated, names);
+        let page = include_str!("../static/index.html");
+        let line = page
+            .lines()
+            .find(|l| l.trim_start().starts_with("const STAGES = ["))
+            .expect("the page lists its stages");
+        let listed: Vec<&str> = line
+            .split(['[', ']'])
+            .nth(1)
+            .expect("a list")
+            .split(',')
+            .map(|w| w.trim().trim_matches('"'))
+            .collect();
+        assert_eq!(listed, names);
+        for code in STAGES.iter().filter_map(|r| r.error_code) {
+            assert!(
+                doc["JobErrorCode"]["enum"]
+                    .as_array()
+                    .expect("a JobErrorCode enum")
+                    .iter()
+                    .any(|c| c == code),
+                "{code}"
+            );
+            assert!(crate::errors::JOB_CODES.iter().any(|c| c.as_str() == code));
+        }
+    }
 
     /// The document states exactly the ranges the pipeline enforces.
     #[test]

@@ -41,7 +41,10 @@ impl Pipeline for Probed {
         progress: &mut dyn Progress,
     ) -> Result<JobResults, PipelineFailure> {
         let r = self.1.run(input, progress);
-        let outcome = r.as_ref().map(|_| ()).map_err(|e| e.code.clone());
+        let outcome = r
+            .as_ref()
+            .map(|_| ())
+            .map_err(|e| e.code.as_str().to_string());
         self.0.ended.lock().unwrap().push((Instant::now(), outcome));
         r
     }
@@ -762,7 +765,10 @@ async fn failures_carry_codes() {
         "{metrics}"
     );
     for c in &codes {
-        assert!(JOB_CODES.iter().any(|(k, _)| k == c), "{c} is documented");
+        assert!(
+            JOB_CODES.iter().any(|k| k.as_str() == c),
+            "{c} is documented"
+        );
     }
 }
 
@@ -984,7 +990,7 @@ async fn openapi_document_matches_the_file_routes_and_codes() {
         enum_of("JobErrorCode"),
         JOB_CODES
             .iter()
-            .map(|c| c.0.to_string())
+            .map(|c| c.as_str().to_string())
             .collect::<Vec<_>>()
     );
     let statuses: Vec<String> = JobStatus::ALL

@@ -243,3 +243,44 @@ async fn over_limit_clouds_fail_before_they_are_read() {
         );
     }
 }
+
+/// A story's own failure reaches the client with its stage's code, not `no_plan`; and the
+/// units check runs for jobs as for the CLI.
+#[tokio::test]
+async fn failures_carry_the_stage_code_and_the_units_check_runs() {
+    let s = common::start(Arc::new(PlanPipeline), |c| c.workers = 1).await;
+    let grid = |z: f64, out: &mut Vec<[f64; 3]>| {
+        for i in 0..=200 {
+            for j in 0..=150 {
+                out.push([i as f64 * 0.02, j as f64 * 0.02, z]);
+            }
+        }
+    };
+    // Floor, ceiling and one wall: a story is found, but its samples are collinear.
+    let mut wall_only = Vec::new();
+    grid(0.0, &mut wall_only);
+    grid(2.7, &mut wall_only);
+    for i in 0..=200 {
+        for k in 0..=135 {
+            wall_only.push([i as f64 * 0.02, 1.5, k as f64 * 0.02]);
+        }
+    }
+    // The same in millimetres.
+    let millimetres: Vec<[f64; 3]> = wall_only.iter().map(|p| p.map(|c| c * 1000.0)).collect();
+    for (points, code) in [(wall_only, "labeling_failed"), (millimetres, "wrong_units")] {
+        let path = s.dir.path().join(format!("{code}.ply"));
+        let cloud = asbuilt_plan::cloud::PointCloud::from_world(&points);
+        asbuilt_plan::io::ply::write_ply(
+            &path,
+            &cloud,
+            asbuilt_plan::io::ply::Encoding::BinaryLittleEndian,
+        )
+        .unwrap();
+        let job = s.upload(std::fs::read(&path).unwrap()).await;
+        let done = s
+            .wait_done(job["id"].as_str().unwrap(), Duration::from_secs(60))
+            .await;
+        assert_eq!(done["status"], "failed", "{done}");
+        assert_eq!(done["error"]["code"], code, "{done}");
+    }
+}

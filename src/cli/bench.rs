@@ -22,18 +22,9 @@ use serde::Serialize;
 /// The environment variable naming the file a process writes its peak resident memory to.
 pub const PEAK_RSS_ENV: &str = "ASBUILT_PEAK_RSS_FILE";
 
-/// The stages reported per run, in pipeline order (`timings_ms` keys).
-const STAGES: [&str; 9] = [
-    "read",
-    "stories",
-    "samples",
-    "smoothing",
-    "triangulate",
-    "label",
-    "cleanup",
-    "fit",
-    "write",
-];
+/// The stages reported per run, in pipeline order (`timings_ms` keys): the pipeline's table.
+static STAGES: std::sync::LazyLock<Vec<&'static str>> =
+    std::sync::LazyLock::new(|| asbuilt_plan::progress::timing_keys().collect());
 
 #[derive(clap::Args)]
 pub struct BenchArgs {
@@ -636,7 +627,11 @@ fn markdown(r: &Report) -> String {
         let _ = writeln!(
             s,
             "| points | format | mode | threads | file MB | cat ms | info ms | plan ms | plan/info | plan CPU ms | {} | Mpts/s | peak MB | peak/compact |",
-            STAGES.map(|st| format!("{st} ms")).join(" | ")
+            STAGES
+                .iter()
+                .map(|st| format!("{st} ms"))
+                .collect::<Vec<_>>()
+                .join(" | ")
         );
         let _ = writeln!(s, "|{}", "---|".repeat(14 + STAGES.len()));
         for p in &r.plan_runs {

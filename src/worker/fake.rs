@@ -15,6 +15,8 @@ use asbuilt_plan::io::{dxf, geojson, svg};
 use asbuilt_plan::plan::{FloorPlan, InputSummary, Polygon, StoryPlan, Wall, WallModel};
 use asbuilt_plan::progress::{Progress, Stage};
 
+use crate::errors::JobCode;
+
 use super::pipeline::{check_points, JobInput, JobResults, Pipeline, PipelineFailure};
 
 /// The stages the fake walks through, with their share of the run.
@@ -114,7 +116,7 @@ impl Pipeline for FakePipeline {
         progress: &mut dyn Progress,
     ) -> Result<JobResults, PipelineFailure> {
         let text = std::fs::read(&input.cloud)
-            .map_err(|e| PipelineFailure::new("io_error", e.to_string()))?;
+            .map_err(|e| PipelineFailure::new(JobCode::IoError, e.to_string()))?;
         let text = String::from_utf8_lossy(&text);
         if text.contains("#panic") {
             panic!("the fake pipeline was asked to panic");
@@ -124,7 +126,7 @@ impl Pipeline for FakePipeline {
                 .chars()
                 .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
                 .collect();
-            return Err(PipelineFailure::new(
+            return Err(PipelineFailure::from_pipeline(
                 &code,
                 "the fake pipeline was asked to fail",
             ));
@@ -159,14 +161,14 @@ impl Pipeline for FakePipeline {
             geojson: geojson::to_geojson_string(&plan).into_bytes(),
             svg: svg::to_svg(&plan).into_bytes(),
             dxf: dxf::to_dxf(&plan)
-                .map_err(|e| PipelineFailure::new("output_failed", e.to_string()))?,
+                .map_err(|e| PipelineFailure::new(JobCode::OutputFailed, e.to_string()))?,
         };
         if let Some(log) = &self.completions {
             let mut f = std::fs::OpenOptions::new()
                 .create(true)
                 .append(true)
                 .open(log)
-                .map_err(|e| PipelineFailure::new("io_error", e.to_string()))?;
+                .map_err(|e| PipelineFailure::new(JobCode::IoError, e.to_string()))?;
             // One write per line: `writeln!` writes the id and the newline separately, and two
             // workers appending at once interleaved them ("id1id2\n\n").
             let _ = f.write_all(format!("{}\n", input.job).as_bytes());

@@ -18,6 +18,7 @@ use tokio::task::JoinHandle;
 use tokio_util::sync::CancellationToken;
 
 use crate::app::AppState;
+use crate::errors::JobCode;
 use crate::queue::{Beat, Heartbeat, Job, JobError, JobId, JobOutcome, JobStatus};
 use crate::storage::keys;
 use pipeline::{JobInput, JobResults, Pipeline, PipelineFailure, SidecarKind};
@@ -111,7 +112,7 @@ impl Workers {
                     joined = &mut joined => match joined {
                         Ok(Ok(r)) => r,
                         Ok(Err(_)) | Err(_) => Err(PipelineFailure::new(
-                            "pipeline_panic",
+                            JobCode::PipelinePanic,
                             "the pipeline crashed on this input; this is a bug, please report it",
                         )),
                     },
@@ -148,10 +149,10 @@ impl Workers {
         scratch: &std::path::Path,
     ) -> Result<JobInput, PipelineFailure> {
         let io = |e: &dyn std::fmt::Display| {
-            PipelineFailure::new("io_error", format!("reading the upload: {e}"))
+            PipelineFailure::new(JobCode::IoError, format!("reading the upload: {e}"))
         };
         let params: Params = serde_json::from_value(job.params.clone())
-            .map_err(|e| PipelineFailure::new("invalid_parameter", e.to_string()))?;
+            .map_err(|e| PipelineFailure::new(JobCode::InvalidParameter, e.to_string()))?;
         let blobs = &self.state.blobs;
         let fetch = |key: String, name: &str| {
             let local = blobs.local_path(&key).filter(|p| p.is_file());
@@ -275,9 +276,9 @@ impl Workers {
                 }
             }
             (_, Err(f)) => {
-                tracing::info!(job = %id, code = %f.code, message = %f.message, "job failed");
+                tracing::info!(job = %id, code = f.code.as_str(), message = %f.message, "job failed");
                 let error = JobError {
-                    code: f.code,
+                    code: f.code.as_str().to_string(),
                     message: f.message,
                 };
                 if store.fail(id, owner, &error, Some(stage.name())).await? {

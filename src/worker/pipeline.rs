@@ -7,6 +7,7 @@ use asbuilt_plan::io::{dxf, geojson, svg, ReadOptions};
 use asbuilt_plan::progress::{Progress, Stage};
 use asbuilt_plan::{plan_scan, Cancelled, Params, Planned, RunError, Scan};
 
+use crate::errors::JobCode;
 use crate::queue::JobId;
 
 /// The sidecar kinds are the pipeline's own.
@@ -35,18 +36,30 @@ pub struct JobResults {
     pub dxf: Vec<u8>,
 }
 
-/// Why a run failed: a stable code (see `errors::JOB_CODES`) and a message for the user.
+/// Why a run failed: a stable code and a message for the user.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PipelineFailure {
-    pub code: String,
+    pub code: JobCode,
     pub message: String,
 }
 
 impl PipelineFailure {
-    pub fn new(code: &str, message: impl Into<String>) -> PipelineFailure {
+    pub fn new(code: JobCode, message: impl Into<String>) -> PipelineFailure {
         PipelineFailure {
-            code: code.to_string(),
+            code,
             message: message.into(),
+        }
+    }
+
+    /// A failure the pipeline named by its code. A code the service does not know is a bug
+    /// on one side or the other, reported as such.
+    pub fn from_pipeline(code: &str, message: impl Into<String>) -> PipelineFailure {
+        match JobCode::parse(code) {
+            Some(code) => PipelineFailure::new(code, message),
+            None => PipelineFailure::new(
+                JobCode::PipelinePanic,
+                format!("{} (unknown code `{code}`)", message.into()),
+            ),
         }
     }
 
@@ -57,14 +70,12 @@ impl PipelineFailure {
 
     /// The pipeline stopped on its flag (`cancelled`) or its deadline (`time_limit`).
     pub fn stopped(why: Cancelled) -> PipelineFailure {
-        PipelineFailure::new(why.code(), why.to_string())
+        PipelineFailure::from_pipeline(why.code(), why.to_string())
     }
 
     /// True when the run was stopped from outside rather than failing on its own.
     pub fn is_stop(&self) -> bool {
-        [Cancelled::ByCaller, Cancelled::TimeLimit]
-            .iter()
-            .any(|c| c.code() == self.code)
+        matches!(self.code, JobCode::Cancelled | JobCode::TimeLimit)
     }
 }
 
@@ -88,7 +99,7 @@ pub fn check_points(points: u64, max: u64) -> Result<(), PipelineFailure> {
 
 fn too_many_points(points: u64, max: u64) -> PipelineFailure {
     PipelineFailure::new(
-        "too_many_points",
+        JobCode::TooManyPoints,
         format!("the cloud has {points} points; this server accepts at most {max}"),
     )
 }
@@ -118,7 +129,7 @@ impl Pipeline for PlanPipeline {
         let Planned { plan, .. } = plan_scan(&scan, progress).map_err(|e| failure(e, input))?;
         progress.report(Stage::Write, 1.0);
         let dxf = dxf::to_dxf(&plan)
-            .map_err(|e| PipelineFailure::new("output_failed", format!("DXF: {e}")))?;
+            .map_err(|e| PipelineFailure::new(JobCode::OutputFailed, format!("DXF: {e}")))?;
         Ok(JobResults {
             input: serde_json::to_value(&plan.input).unwrap_or_default(),
             timings_ms: plan.timings_ms.clone(),
@@ -142,5 +153,5 @@ fn failure(e: RunError, input: &JobInput) -> PipelineFailure {
     if let Some((kind, path)) = &input.sidecar {
         message = hide_path(message, path, kind.name());
     }
-    PipelineFailure::new(e.code(), message)
+    PipelineFailure::from_pipeline(e.code(), message)
 }

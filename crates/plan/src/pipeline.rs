@@ -38,8 +38,10 @@ pub enum PlanError {
     Boundary(#[from] BoundaryError),
     #[error("fitting: {0}")]
     Fitting(#[from] FittingError),
-    #[error("no story produced a plan: {0}")]
-    NoPlan(String),
+    /// Every story failed. `code` is their stage's code when they all failed in the same
+    /// stage, else `no_plan`; `why` lists each story's failure.
+    #[error("no story produced a plan: {why}")]
+    NoPlan { code: &'static str, why: String },
     /// The caller's [`Cancel`] stopped the run (whichever stage it was in).
     #[error("{0}")]
     Cancelled(#[from] Cancelled),
@@ -51,14 +53,23 @@ impl PlanError {
         match self {
             PlanError::EmptyCloud => "empty_cloud",
             PlanError::BadCloud(_) => "bad_cloud",
-            PlanError::Stories(_) => "no_stories",
-            PlanError::Samples(_) => "samples_failed",
-            PlanError::Smoothing(_) => "smoothing_failed",
-            PlanError::Labeling(_) => "labeling_failed",
-            PlanError::Boundary(_) => "boundary_failed",
-            PlanError::Fitting(_) => "fitting_failed",
-            PlanError::NoPlan(_) => "no_plan",
+            PlanError::NoPlan { code, .. } => code,
             PlanError::Cancelled(c) => c.code(),
+            e => e.stage().and_then(Stage::error_code).unwrap_or("no_plan"),
+        }
+    }
+
+    /// The stage that failed, for the errors of one stage.
+    pub fn stage(&self) -> Option<Stage> {
+        match self {
+            PlanError::Stories(_) => Some(Stage::Stories),
+            PlanError::Samples(_) => Some(Stage::Samples),
+            PlanError::Smoothing(_) => Some(Stage::Smoothing),
+            PlanError::Labeling(_) => Some(Stage::Labeling),
+            // Boundary tracing runs within cleanup.
+            PlanError::Boundary(_) => Some(Stage::Cleanup),
+            PlanError::Fitting(_) => Some(Stage::Fitting),
+            _ => None,
         }
     }
 
@@ -223,6 +234,7 @@ pub(crate) fn plan_stories(
     let mut plans = Vec::new();
     let mut min_points_used = Vec::new();
     let mut failures = Vec::new();
+    let mut codes = Vec::new();
     // Open area in all, and the part viewpoint evidence forced inside.
     let mut evidence = (0.0, 0.0);
     for (i, story) in stories.iter().enumerate() {
@@ -271,11 +283,15 @@ pub(crate) fn plan_stories(
                     story.floor_z + cloud.origin[2]
                 ));
                 failures.push(why);
+                codes.push(e.code());
             }
         }
     }
     if plans.is_empty() {
-        return Err(PlanError::NoPlan(failures.join("; ")));
+        return Err(PlanError::NoPlan {
+            code: shared_code(&codes),
+            why: failures.join("; "),
+        });
     }
     if params.samples.min_points.is_none() {
         parameters["samples"]["min_points_derived"] = serde_json::json!(min_points_used);
@@ -304,6 +320,14 @@ pub(crate) fn plan_stories(
     })
 }
 
+/// The stories' own failure code when they agree on it, else `no_plan`.
+fn shared_code(codes: &[&'static str]) -> &'static str {
+    match codes.split_first() {
+        Some((first, rest)) if rest.iter().all(|c| c == first) => first,
+        _ => "no_plan",
+    }
+}
+
 fn plan_story(
     story: &Story,
     params: &Params,
@@ -314,13 +338,13 @@ fn plan_story(
     at: impl Fn(f64) -> f64,
     sample: &mut dyn FnMut(&Story, &Cancel) -> Result<WallSamples, SamplesError>,
 ) -> Result<StoryOutcome, PlanError> {
-    let mut step = |stage: Stage, k: f64| {
-        progress.report(stage, at(k));
+    let mut step = |stage: Stage| {
+        progress.report(stage, at(stage.start()));
         cancel.check()
     };
-    step(Stage::Samples, 0.0)?;
+    step(Stage::Samples)?;
     let mut samples = timings.time(Stage::Samples, || sample(story, cancel))?;
-    step(Stage::Smoothing, 0.4)?;
+    step(Stage::Smoothing)?;
     timings.time(Stage::Smoothing, || {
         smooth_samples(
             &mut samples,
@@ -329,7 +353,7 @@ fn plan_story(
             cancel,
         )
     })?;
-    step(Stage::Labeling, 0.5)?;
+    step(Stage::Labeling)?;
     // The triangulation is reported on its own, ahead of the labeling proper.
     timings.add(TRIANGULATE, 0.0);
     let start = Instant::now();
@@ -340,13 +364,13 @@ fn plan_story(
         Stage::Labeling.name(),
         (start.elapsed().as_secs_f64() * 1e3 - mesh_ms).max(0.0),
     );
-    step(Stage::Cleanup, 0.8)?;
+    step(Stage::Cleanup)?;
     timings.time(Stage::Cleanup, || {
         clean_labels(&mut labeled, &params.cleanup)
     });
     let forced = forced_area(&labeled);
     let boundary = timings.time(Stage::Cleanup, || trace_boundary(&labeled))?;
-    step(Stage::Fitting, 0.9)?;
+    step(Stage::Fitting)?;
     let fitted = timings.time(Stage::Fitting, || {
         fit_walls(&labeled, &boundary, &params.fitting, cancel)
     })?;
@@ -394,4 +418,25 @@ fn forced_area(labeled: &crate::labeling::LabeledMesh) -> (f64, f64) {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stories_failing_alike_keep_their_code() {
+        assert_eq!(shared_code(&["labeling_failed"]), "labeling_failed");
+        assert_eq!(
+            shared_code(&["fitting_failed", "fitting_failed"]),
+            "fitting_failed"
+        );
+        assert_eq!(
+            shared_code(&["samples_failed", "fitting_failed"]),
+            "no_plan"
+        );
+        assert_eq!(shared_code(&[]), "no_plan");
+        let e = PlanError::Boundary(BoundaryError::NothingInside);
+        assert_eq!(e.code(), "boundary_failed");
+    }
 }

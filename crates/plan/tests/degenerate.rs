@@ -89,7 +89,7 @@ fn a_wall_alone_encloses_nothing() {
     let mut p = Vec::new();
     wall([0.0, 0.0], [4.0, 0.0], 0.02, &mut p);
     let e = run(&p).unwrap_err();
-    assert_eq!(e.code(), "no_plan", "{e}");
+    assert_eq!(e.code(), "labeling_failed", "{e}");
     assert!(e.to_string().contains("collinear"), "{e}");
 }
 
@@ -106,7 +106,7 @@ fn floor_and_ceiling_without_walls_say_so() {
         p.push([2.0, 1.5, k as f64 * 0.027]);
     }
     let e = run(&p).unwrap_err();
-    assert_eq!(e.code(), "no_plan", "{e}");
+    assert_eq!(e.code(), "labeling_failed", "{e}");
     assert!(e.to_string().contains("too few wall samples"), "{e}");
 }
 
@@ -116,7 +116,7 @@ fn one_wall_only_gives_collinear_samples_and_a_clear_error() {
     floor_and_ceiling(&mut p);
     wall([0.0, 1.5], [4.0, 1.5], 0.02, &mut p);
     let e = run(&p).unwrap_err();
-    assert_eq!(e.code(), "no_plan", "{e}");
+    assert_eq!(e.code(), "labeling_failed", "{e}");
     assert!(e.to_string().contains("collinear"), "{e}");
 }
 
