@@ -803,25 +803,30 @@ async fn a_requeued_job_runs_on_a_live_worker() {
     let (probe, pipeline) = probed(1);
     let s = start(pipeline, |c| c.workers = 1).await;
     let state = s.running.as_ref().unwrap().state.clone();
-    // Stop the live worker from racing the ghost: the ghost claims from the store directly,
-    // before the job is even announced.
-    let id = asbuilt::queue::JobId::new();
-    state
-        .store
-        .create(asbuilt::queue::NewJob {
-            id,
-            tenant: "dev".into(),
-            params: asbuilt_plan::Params::default().to_json(),
-            upload: Default::default(),
-            max_attempts: 3,
-        })
-        .await
-        .unwrap();
-    let claimed = state.store.claim("ghost", 100).await.unwrap();
-    if claimed.is_none() {
-        // The live worker was quicker; nothing to test about leases this time.
-        return;
+    // The ghost claims from the store directly, before the job is even announced; the live
+    // worker may still poll in between and win. Then that job fails (it has no cloud) without
+    // reaching the pipeline, and a new one is tried, so the test never passes untested.
+    let mut ghosted = None;
+    for _ in 0..50 {
+        let id = asbuilt::queue::JobId::new();
+        state
+            .store
+            .create(asbuilt::queue::NewJob {
+                id,
+                tenant: "dev".into(),
+                params: asbuilt_plan::Params::default().to_json(),
+                upload: Default::default(),
+                max_attempts: 3,
+            })
+            .await
+            .unwrap();
+        if let Some(job) = state.store.claim("ghost", 100).await.unwrap() {
+            assert_eq!(job.id, id);
+            ghosted = Some(id);
+            break;
+        }
     }
+    let id = ghosted.expect("the ghost won at least one of 50 claims");
     state
         .blobs
         .put(&asbuilt::storage::keys::cloud(id), xyz(4).into())
@@ -830,7 +835,8 @@ async fn a_requeued_job_runs_on_a_live_worker() {
     let done = s.wait_done(&id.to_string(), Duration::from_secs(10)).await;
     assert_eq!(done["status"], "succeeded", "{done}");
     assert_eq!(done["attempts"], 2);
-    assert_eq!(probe.ended.lock().unwrap().len(), 1);
+    let ended = probe.ended.lock().unwrap();
+    assert_eq!(ended.iter().filter(|(_, r)| r.is_ok()).count(), 1);
 }
 
 #[tokio::test]

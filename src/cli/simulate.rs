@@ -6,7 +6,7 @@
 //!   `--ascii`), with `scan_index` for static scans or `time` for a mobile scan. Coordinates are
 //!   `double` when `--offset` is given, `float` otherwise.
 //! - `poses.json` (static) or `trajectory.json` (`--mobile`): the sidecars of
-//!   `shared/design/contract.md` §2, world frame. With `--registration-error` the poses are the
+//!   `docs/contract.md` §2, world frame. With `--registration-error` the poses are the
 //!   registered (erroneous) ones, consistent with the points.
 //!   They are written in every `--keep` mode: with `scan-ids` or `plain` the cloud does not
 //!   point to them, and they are the truth to compare estimated viewpoints against.

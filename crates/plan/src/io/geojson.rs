@@ -1,4 +1,4 @@
-//! The floor plan as GeoJSON, exactly as `shared/design/contract.md` §1 says.
+//! The floor plan as GeoJSON, exactly as `docs/contract.md` §1 says.
 //!
 //! Coordinates leave the local frame here: every position gets `FloorPlan::origin` added back
 //! and is rounded to 0.1 mm, so georeferenced plans stay in their own (e.g. UTM) frame.

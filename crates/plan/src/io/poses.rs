@@ -1,4 +1,4 @@
-//! The pose sidecars of `shared/design/contract.md` §2: static scan poses and mobile trajectories.
+//! The pose sidecars of `docs/contract.md` §2: static scan poses and mobile trajectories.
 //! Sidecar positions are in the cloud's world frame; attaching converts them to the local frame.
 //!
 //! Parsing checks every entry: finite numbers, three-element positions, unit quaternions
