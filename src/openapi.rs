@@ -17,6 +17,43 @@ mod tests {
     use super::*;
     use asbuilt_plan::progress::STAGES;
 
+    /// Each output of the list is a documented download with its media type, a `links` entry,
+    /// and a route; and the document lists no other result.
+    #[test]
+    fn results_follow_the_output_list() {
+        use asbuilt_plan::io::outputs::OUTPUTS;
+        let doc = document();
+        let links = &doc["components"]["schemas"]["Job"]["properties"]["links"]["properties"];
+        let mut named: Vec<&str> = links
+            .as_object()
+            .expect("links")
+            .keys()
+            .map(String::as_str)
+            .filter(|k| !matches!(*k, "self" | "events"))
+            .collect();
+        named.sort_unstable();
+        let mut listed: Vec<&str> = OUTPUTS.iter().map(|o| o.name).collect();
+        listed.sort_unstable();
+        assert_eq!(named, listed);
+        let results: Vec<&str> = doc["paths"]
+            .as_object()
+            .expect("paths")
+            .keys()
+            .filter_map(|p| p.strip_prefix("/v1/jobs/{id}/"))
+            .filter(|f| *f != "events")
+            .collect();
+        assert_eq!(results, OUTPUTS.iter().map(|o| o.file).collect::<Vec<_>>());
+        for o in OUTPUTS {
+            let path = format!("/v1/jobs/{{id}}/{}", o.file);
+            let content = &doc["paths"][&path]["get"]["responses"]["200"]["content"];
+            assert!(content.get(o.media_type).is_some(), "{path}: {content}");
+            assert!(
+                crate::router::ROUTES.contains(&("GET", path.as_str())),
+                "{path}"
+            );
+        }
+    }
+
     /// The page, the document's `Stage` enum and its job error codes follow the pipeline's
     /// stage table.
     #[test]

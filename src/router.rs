@@ -66,9 +66,8 @@ pub fn build(state: AppState) -> Router {
             get(jobs::show::show).delete(jobs::delete::delete),
         )
         .route("/v1/jobs/{id}/events", get(jobs::events::events))
-        .route("/v1/jobs/{id}/plan.geojson", get(jobs::results::geojson))
-        .route("/v1/jobs/{id}/plan.svg", get(jobs::results::svg))
-        .route("/v1/jobs/{id}/plan.dxf", get(jobs::results::dxf))
+        // Every result file (`plan.geojson`, ...); `events` is matched first as the fixed path.
+        .route("/v1/jobs/{id}/{file}", get(jobs::results::file))
         .fallback(controllers::route_not_found)
         .method_not_allowed_fallback(controllers::method_not_allowed)
         .layer(TraceLayer::new_for_http())

@@ -1,5 +1,8 @@
 //! How jobs look on the wire (the `Job` schema of `openapi/asbuilt.yaml`).
 
+use std::collections::BTreeMap;
+
+use asbuilt_plan::io::outputs::OUTPUTS;
 use serde::Serialize;
 
 use crate::queue::{Job, JobError, JobStatus, UploadInfo};
@@ -30,13 +33,9 @@ pub struct Links {
     #[serde(rename = "self")]
     pub this: String,
     pub events: String,
-    /// Present once the job succeeded.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub geojson: Option<String>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub svg: Option<String>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub dxf: Option<String>,
+    /// Each result by its output's name (`geojson`, `svg`, ...), once the job succeeded.
+    #[serde(flatten)]
+    pub results: BTreeMap<&'static str, String>,
 }
 
 /// RFC 3339 in UTC with milliseconds.
@@ -50,7 +49,13 @@ impl From<&Job> for JobView {
     fn from(job: &Job) -> JobView {
         let base = format!("/v1/jobs/{}", job.id);
         let done = job.status == JobStatus::Succeeded;
-        let result = |name: &str| done.then(|| format!("{base}/{name}"));
+        let results = match done {
+            true => OUTPUTS
+                .iter()
+                .map(|o| (o.name, format!("{base}/{}", o.file)))
+                .collect(),
+            false => BTreeMap::new(),
+        };
         JobView {
             id: job.id.to_string(),
             status: job.status,
@@ -68,9 +73,7 @@ impl From<&Job> for JobView {
             error: job.error.clone(),
             links: Links {
                 events: format!("{base}/events"),
-                geojson: result("plan.geojson"),
-                svg: result("plan.svg"),
-                dxf: result("plan.dxf"),
+                results,
                 this: base,
             },
         }

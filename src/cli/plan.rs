@@ -6,7 +6,8 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{bail, Context};
-use asbuilt_plan::io::{dxf, geojson, svg, Format, ReadOptions, SidecarKind};
+use asbuilt_plan::io::outputs::{Output, OUTPUTS};
+use asbuilt_plan::io::{Format, ReadOptions, SidecarKind};
 use asbuilt_plan::streaming::StreamingParams;
 use asbuilt_plan::{FloorPlan, Params, Planned, RunError, Scan};
 
@@ -249,26 +250,35 @@ fn check_scale(s: f64) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Where the flags send each output of the list; the GeoJSON goes to standard output without
+/// `--output`.
+fn destination<'a>(args: &'a PlanArgs, output: &Output) -> Option<&'a PathBuf> {
+    match output.name {
+        "geojson" => args.output.as_ref(),
+        "svg" => args.svg.as_ref(),
+        "dxf" => args.dxf.as_ref(),
+        _ => None,
+    }
+}
+
 fn write_outputs(args: &PlanArgs, plan: &FloorPlan) -> anyhow::Result<()> {
-    let text = geojson::to_geojson_string(plan);
-    match &args.output {
-        Some(path) => {
-            std::fs::write(path, &text).with_context(|| format!("writing {}", path.display()))?
+    for output in &OUTPUTS {
+        let to_stdout = output.name == "geojson" && args.output.is_none();
+        let path = destination(args, output);
+        if path.is_none() && !to_stdout {
+            continue;
         }
-        None => {
-            let mut out = std::io::stdout().lock();
-            out.write_all(text.as_bytes())
-                .and_then(|()| out.flush())
-                .context("writing the plan to standard output")?;
+        let bytes = (output.write)(plan).map_err(|e| anyhow::anyhow!(e))?;
+        match path {
+            Some(path) => std::fs::write(path, bytes)
+                .with_context(|| format!("writing {}", path.display()))?,
+            None => {
+                let mut out = std::io::stdout().lock();
+                out.write_all(&bytes)
+                    .and_then(|()| out.flush())
+                    .context("writing the plan to standard output")?;
+            }
         }
-    }
-    if let Some(path) = &args.svg {
-        std::fs::write(path, svg::to_svg(plan))
-            .with_context(|| format!("writing {}", path.display()))?;
-    }
-    if let Some(path) = &args.dxf {
-        let bytes = dxf::to_dxf(plan)?;
-        std::fs::write(path, bytes).with_context(|| format!("writing {}", path.display()))?;
     }
     Ok(())
 }

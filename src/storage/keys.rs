@@ -22,15 +22,8 @@ pub fn result_prefix(id: JobId) -> String {
     format!("jobs/{id}/result")
 }
 
-/// One result file; `name` is one of [`RESULTS`].
+/// One result file; `name` is the file of one of `asbuilt_plan::io::outputs::OUTPUTS`.
 pub fn result(id: JobId, name: &str) -> String {
-    debug_assert!(RESULTS.iter().any(|(n, _)| *n == name));
+    debug_assert!(asbuilt_plan::io::outputs::by_file(name).is_some());
     format!("jobs/{id}/result/{name}")
 }
-
-/// The result files and their media types.
-pub const RESULTS: [(&str, &str); 3] = [
-    ("plan.geojson", "application/geo+json"),
-    ("plan.svg", "image/svg+xml"),
-    ("plan.dxf", "application/dxf"),
-];

@@ -11,7 +11,6 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use asbuilt_plan::io::{dxf, geojson, svg};
 use asbuilt_plan::plan::{FloorPlan, InputSummary, Polygon, StoryPlan, Wall, WallModel};
 use asbuilt_plan::progress::{Progress, Stage};
 
@@ -155,14 +154,7 @@ impl Pipeline for FakePipeline {
         timings.push(("total".into(), total));
         let mut plan = square_plan(points);
         plan.timings_ms = timings.clone();
-        let results = JobResults {
-            input: serde_json::to_value(&plan.input).unwrap_or_default(),
-            timings_ms: timings,
-            geojson: geojson::to_geojson_string(&plan).into_bytes(),
-            svg: svg::to_svg(&plan).into_bytes(),
-            dxf: dxf::to_dxf(&plan)
-                .map_err(|e| PipelineFailure::new(JobCode::OutputFailed, e.to_string()))?,
-        };
+        let results = JobResults::of(&plan)?;
         if let Some(log) = &self.completions {
             let mut f = std::fs::OpenOptions::new()
                 .create(true)

@@ -234,14 +234,10 @@ impl Workers {
                 }
             }
             (_, Ok(results)) => {
-                for (name, bytes) in [
-                    ("plan.geojson", results.geojson),
-                    ("plan.svg", results.svg),
-                    ("plan.dxf", results.dxf),
-                ] {
+                for (output, bytes) in results.files {
                     self.state
                         .blobs
-                        .put(&keys::result(id, name), Bytes::from(bytes))
+                        .put(&keys::result(id, output.file), Bytes::from(bytes))
                         .await?;
                 }
                 let timings: serde_json::Map<String, serde_json::Value> = results

@@ -3,8 +3,10 @@
 
 use std::path::{Path, PathBuf};
 
-use asbuilt_plan::io::{dxf, geojson, svg, ReadOptions};
+use asbuilt_plan::io::outputs::{Output, OUTPUTS};
+use asbuilt_plan::io::ReadOptions;
 use asbuilt_plan::progress::{Progress, Stage};
+use asbuilt_plan::FloorPlan;
 use asbuilt_plan::{plan_scan, Cancelled, Params, Planned, RunError, Scan};
 
 use crate::errors::JobCode;
@@ -31,9 +33,27 @@ pub struct JobResults {
     pub input: serde_json::Value,
     /// Stage name → milliseconds, pipeline order, `total` last.
     pub timings_ms: Vec<(String, u64)>,
-    pub geojson: Vec<u8>,
-    pub svg: Vec<u8>,
-    pub dxf: Vec<u8>,
+    /// Every result file of `asbuilt_plan::io::outputs::OUTPUTS`, in its order.
+    pub files: Vec<(&'static Output, Vec<u8>)>,
+}
+
+impl JobResults {
+    /// The summary and every result file of `plan`.
+    pub fn of(plan: &FloorPlan) -> Result<JobResults, PipelineFailure> {
+        let files = OUTPUTS
+            .iter()
+            .map(|o| {
+                (o.write)(plan)
+                    .map(|bytes| (o, bytes))
+                    .map_err(|e| PipelineFailure::new(JobCode::OutputFailed, e))
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(JobResults {
+            input: serde_json::to_value(&plan.input).unwrap_or_default(),
+            timings_ms: plan.timings_ms.clone(),
+            files,
+        })
+    }
 }
 
 /// Why a run failed: a stable code and a message for the user.
@@ -128,15 +148,7 @@ impl Pipeline for PlanPipeline {
         };
         let Planned { plan, .. } = plan_scan(&scan, progress).map_err(|e| failure(e, input))?;
         progress.report(Stage::Write, 1.0);
-        let dxf = dxf::to_dxf(&plan)
-            .map_err(|e| PipelineFailure::new(JobCode::OutputFailed, format!("DXF: {e}")))?;
-        Ok(JobResults {
-            input: serde_json::to_value(&plan.input).unwrap_or_default(),
-            timings_ms: plan.timings_ms.clone(),
-            geojson: geojson::to_geojson_string(&plan).into_bytes(),
-            svg: svg::to_svg(&plan).into_bytes(),
-            dxf,
-        })
+        JobResults::of(&plan)
     }
 }
 

@@ -1,4 +1,5 @@
-//! `GET /v1/jobs/{id}/plan.{geojson,svg,dxf}`: the results, streamed from storage.
+//! `GET /v1/jobs/{id}/{file}`: the results of `asbuilt_plan::io::outputs::OUTPUTS`, streamed
+//! from storage.
 
 use axum::body::Body;
 use axum::extract::{Path, State};
@@ -24,10 +25,8 @@ async fn result(
             format!("the job is {}, so it has no {name}", job.status.as_str()),
         ));
     }
-    let media = keys::RESULTS
-        .iter()
-        .find(|(n, _)| *n == name)
-        .map_or("application/octet-stream", |(_, m)| m);
+    let media = asbuilt_plan::io::outputs::by_file(name)
+        .map_or("application/octet-stream", |o| o.media_type);
     let key = keys::result(job.id, name);
     // With pre-signed URLs configured, the client fetches straight from the object store.
     if let Some(url) = state.blobs.presigned_get(&key).await? {
@@ -48,26 +47,14 @@ async fn result(
         .into_response())
 }
 
-pub async fn geojson(
+/// Any result of `asbuilt_plan::io::outputs::OUTPUTS` by its file name: `plan.geojson`, ...
+pub async fn file(
     State(s): State<AppState>,
     Tenant(t): Tenant,
-    Path(id): Path<String>,
+    Path((id, file)): Path<(String, String)>,
 ) -> Result<Response, ApiError> {
-    result(s, t, id, "plan.geojson").await
-}
-
-pub async fn svg(
-    State(s): State<AppState>,
-    Tenant(t): Tenant,
-    Path(id): Path<String>,
-) -> Result<Response, ApiError> {
-    result(s, t, id, "plan.svg").await
-}
-
-pub async fn dxf(
-    State(s): State<AppState>,
-    Tenant(t): Tenant,
-    Path(id): Path<String>,
-) -> Result<Response, ApiError> {
-    result(s, t, id, "plan.dxf").await
+    let Some(output) = asbuilt_plan::io::outputs::by_file(&file) else {
+        return Err(ApiError::new(Code::RouteNotFound, "no such endpoint"));
+    };
+    result(s, t, id, output.file).await
 }

@@ -9,6 +9,7 @@ pub mod e57;
 pub mod export;
 pub mod geojson;
 pub mod las;
+pub mod outputs;
 pub mod ply;
 pub mod poses;
 pub(crate) mod sidecar;
