@@ -1,4 +1,4 @@
-//! The HTTP routes. [`ROUTES`] lists them for the OpenAPI test; [`build`] wires them.
+//! The HTTP routes. [`routes`] lists them for the OpenAPI test; [`build`] wires them.
 
 use axum::extract::DefaultBodyLimit;
 use axum::routing::{get, post};
@@ -8,8 +8,8 @@ use tower_http::trace::TraceLayer;
 use crate::app::AppState;
 use crate::controllers::{self, jobs};
 
-/// Every route, as (method, OpenAPI path). The OpenAPI test checks the document against it,
-/// and that each of these reaches a handler.
+/// The fixed routes, as (method, OpenAPI path); [`routes`] adds the results. The OpenAPI test
+/// checks the document against them, and that each reaches a handler.
 pub const ROUTES: &[(&str, &str)] = &[
     ("GET", "/"),
     ("GET", "/healthz"),
@@ -22,10 +22,20 @@ pub const ROUTES: &[(&str, &str)] = &[
     ("GET", "/v1/jobs/{id}"),
     ("DELETE", "/v1/jobs/{id}"),
     ("GET", "/v1/jobs/{id}/events"),
-    ("GET", "/v1/jobs/{id}/plan.geojson"),
-    ("GET", "/v1/jobs/{id}/plan.svg"),
-    ("GET", "/v1/jobs/{id}/plan.dxf"),
 ];
+
+/// Every route: [`ROUTES`], then a download per result of `asbuilt_plan::io::outputs::OUTPUTS`
+/// (all served by one `/v1/jobs/{id}/{file}` route).
+pub fn routes() -> Vec<(&'static str, String)> {
+    let results = asbuilt_plan::io::outputs::OUTPUTS
+        .iter()
+        .map(|o| ("GET", format!("/v1/jobs/{{id}}/{}", o.file)));
+    ROUTES
+        .iter()
+        .map(|(m, p)| (*m, p.to_string()))
+        .chain(results)
+        .collect()
+}
 
 /// A worker-only process's router: liveness, readiness and metrics for probes and scrapers.
 pub fn worker(state: AppState) -> Router {
