@@ -110,8 +110,10 @@ impl Proc {
     }
 
     fn terminate(&mut self) {
+        // A killed worker is already gone; `kill` would only say so.
         let _ = Command::new("kill")
             .args(["-TERM", &self.child.id().to_string()])
+            .stderr(Stdio::null())
             .status();
         let end = Instant::now() + Duration::from_secs(60);
         while Instant::now() < end {
