@@ -306,7 +306,10 @@ pub(crate) fn plan_stories(
     let mut viewpoints = input.viewpoints.clone();
     if let Some(placed) = input.open_space {
         viewpoints.open_space = placed.take();
-        let any = viewpoints.open_space.iter().any(|s| !s.viewpoints.is_empty());
+        let any = viewpoints
+            .open_space
+            .iter()
+            .any(|s| !s.viewpoints.is_empty());
         if any && viewpoints.source == ViewpointSource::None {
             viewpoints.source = ViewpointSource::OpenSpace;
         }

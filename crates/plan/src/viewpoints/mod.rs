@@ -463,8 +463,14 @@ pub fn describe(report: &ViewpointsReport) -> Vec<String> {
         }
         ViewpointSource::OpenSpace => {
             let placed: usize = report.open_space.iter().map(|s| s.viewpoints.len()).sum();
+            let given = match report.scans.len() {
+                0 => "no scanner poses, scan ids or times were given".to_string(),
+                n => format!(
+                    "no scanner pose was given and none of the {n} scans could be located from the blind spot under the scanner"
+                ),
+            };
             notes.push(format!(
-                "no scanner poses, scan ids or times were given: {placed} pseudo-viewpoints were placed in the open space the wall samples enclose (far from every wall, where floor or ceiling points were scanned) and used as scanner positions"
+                "{given}: {placed} pseudo-viewpoints were placed in the open space the wall samples enclose (far from every wall, where floor or ceiling points were scanned) and used as scanner positions"
             ));
             notes.push(format!(
                 "{share} was forced inside by lines of sight from these pseudo-viewpoints; the rest was labelled from the wall geometry"
