@@ -145,14 +145,14 @@ fn open_places(walls: &Raster, cover: &Cover, params: &ViewpointsParams) -> Vec<
         }
         let p = walls.center(i % walls.nx, i / walls.nx);
         let ok = cover.covers(i) && enclosed(walls, p, reach, params.open_space_max_escape);
-        let radius = if ok {
+        if ok {
             out.push(p);
-            params.open_space_spacing
+            // What a place sees nearby needs no second viewpoint; a room behind a wall does.
+            paint(&mut taken, walls, p, params.open_space_spacing, true);
         } else {
             // The disk free of walls around a rejected place is on the same side of them.
-            d[i] - walls.cell
-        };
-        paint(&mut taken, walls, p, radius);
+            paint(&mut taken, walls, p, d[i] - walls.cell, false);
+        }
     }
     out
 }
@@ -169,8 +169,8 @@ fn enclosed(walls: &Raster, p: P2, reach: f64, max_escape: f64) -> bool {
     escaped as f64 <= max_escape * DIRECTIONS as f64
 }
 
-/// Marks the cells within `radius` of `p`.
-fn paint(taken: &mut [bool], r: &Raster, p: P2, radius: f64) {
+/// Marks the cells within `radius` of `p`; with `seen`, only those in sight of `p`.
+fn paint(taken: &mut [bool], r: &Raster, p: P2, radius: f64, seen: bool) {
     let cells = (radius / r.cell).ceil() as i64;
     let (ci, cj) = (
         ((p[0] - r.lo[0]) / r.cell) as i64,
@@ -178,7 +178,15 @@ fn paint(taken: &mut [bool], r: &Raster, p: P2, radius: f64) {
     );
     for j in (cj - cells).max(0)..=(cj + cells).min(r.ny as i64 - 1) {
         for i in (ci - cells).max(0)..=(ci + cells).min(r.nx as i64 - 1) {
-            if dist(r.center(i as usize, j as usize), p) <= radius {
+            let c = r.center(i as usize, j as usize);
+            let d = dist(c, p);
+            let visible = || {
+                d < r.cell || {
+                    let dir = [(c[0] - p[0]) / d, (c[1] - p[1]) / d];
+                    r.first_hit(p, dir, d).is_none()
+                }
+            };
+            if d <= radius && (!seen || visible()) {
                 taken[j as usize * r.nx + i as usize] = true;
             }
         }
@@ -315,6 +323,29 @@ mod tests {
             let v = samples.viewpoints[s.seen_from[0] as usize];
             assert!(dot(s.normal, sub(v, s.pos)) > 0.0);
         }
+    }
+
+    #[test]
+    fn a_room_behind_a_wall_gets_its_own_viewpoint() {
+        // Two closed 2.4 m rooms side by side: their centres are closer than the spacing, but
+        // neither sees into the other.
+        let mut all = ring_samples(&[[0.0, 0.0], [2.4, 0.0], [2.4, 2.4], [0.0, 2.4]]);
+        all.extend(ring_samples(&[[2.4, 0.0], [4.8, 0.0], [4.8, 2.4], [2.4, 2.4]]));
+        let mut samples = WallSamples {
+            samples: all,
+            ..Default::default()
+        };
+        let xyz = floor([0.0, 0.0], [4.8, 2.4], |_| true);
+        // Wider than both rooms together.
+        let params = ViewpointsParams {
+            open_space_spacing: 5.0,
+            ..Default::default()
+        };
+        let report = place(&xyz, &story(), &mut samples, &params, 10.0);
+        let left = report.viewpoints.iter().filter(|v| v[0] < 2.4).count();
+        let right = report.viewpoints.iter().filter(|v| v[0] > 2.4).count();
+        assert!(left >= 1 && right >= 1, "{:?}", report.viewpoints);
+        assert_eq!(report.samples_seen, report.samples);
     }
 
     #[test]
