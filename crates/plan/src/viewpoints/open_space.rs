@@ -8,11 +8,13 @@
 //! seen from every pseudo-viewpoint whose straight line to it crosses no other wall sample,
 //! within the scanner range, as a scanner there would have seen it.
 
+use std::collections::HashMap;
+
 use rayon::prelude::*;
 
 use super::raster::Raster;
 use super::{OpenSpaceStory, ViewpointsParams};
-use crate::geom::{dist, dot, sub, P2};
+use crate::geom::{dist, dot, point_segment_distance, sub, P2};
 use crate::samples::WallSamples;
 use crate::stories::Story;
 
@@ -25,9 +27,15 @@ const MAX_CELLS: usize = 16_000_000;
 const BAND: f64 = 0.15;
 /// Directions tried from a place to see whether the walls enclose it.
 const DIRECTIONS: usize = 72;
-/// A line of sight ends this short of its sample, metres, so the sample's own wall does not
-/// block it.
-const END_TOLERANCE: f64 = 0.2;
+/// The last this many metres of a line of sight are judged on the samples themselves, not the
+/// raster: its cells are too coarse to tell a sample's own wall from the near face of a thin
+/// wall the sample lies behind.
+const NEAR: f64 = 0.3;
+/// Samples this close to the one seen are its own wall, metres (two sample cells apart).
+const OWN: f64 = 0.07;
+/// A line of sight crosses a wall when it passes this close to one of its samples, metres: a
+/// line crossing a wall sampled every 5 cm passes within 2.5 cm of a sample.
+const CROSS: f64 = 0.03;
 /// At most this many pseudo-viewpoints see a sample (the nearest).
 const MAX_SEEN_FROM: usize = 16;
 /// At most this many pseudo-viewpoints per story.
@@ -106,10 +114,15 @@ pub(crate) fn place(
     if places.is_empty() {
         return report;
     }
-    let seen: Vec<Vec<u32>> = samples
-        .samples
+    let positions: Vec<P2> = samples.samples.iter().map(|s| s.pos).collect();
+    let near = neighbours(&positions, NEAR + CROSS);
+    let seen: Vec<Vec<u32>> = positions
         .par_iter()
-        .map(|s| seen_from(&walls, &places, s.pos, max_range))
+        .zip(&near)
+        .map(|(&pos, near)| {
+            let near: Vec<P2> = near.iter().map(|&k| positions[k as usize]).collect();
+            seen_from(&walls, &places, pos, &near, max_range)
+        })
         .collect();
     for (s, from) in samples.samples.iter_mut().zip(seen) {
         if let Some(&v) = from.first() {
@@ -193,23 +206,52 @@ fn paint(taken: &mut [bool], r: &Raster, p: P2, radius: f64, seen: bool) {
     }
 }
 
+/// Per point, the other points within `r` of it.
+fn neighbours(points: &[P2], r: f64) -> Vec<Vec<u32>> {
+    let key = |p: P2| ((p[0] / r).floor() as i64, (p[1] / r).floor() as i64);
+    let mut cells: HashMap<(i64, i64), Vec<u32>> = HashMap::new();
+    for (k, &p) in points.iter().enumerate() {
+        cells.entry(key(p)).or_default().push(k as u32);
+    }
+    points
+        .par_iter()
+        .enumerate()
+        .map(|(k, &p)| {
+            let (ci, cj) = key(p);
+            let mut out = Vec::new();
+            for dj in -1..=1 {
+                for di in -1..=1 {
+                    for &o in cells.get(&(ci + di, cj + dj)).into_iter().flatten() {
+                        if o as usize != k && dist(points[o as usize], p) <= r {
+                            out.push(o);
+                        }
+                    }
+                }
+            }
+            out
+        })
+        .collect()
+}
+
 /// The places (indices, nearest first, at most [`MAX_SEEN_FROM`]) within `max_range` of `pos`
-/// whose straight line to it meets no wall cell short of the sample's own.
-fn seen_from(walls: &Raster, places: &[P2], pos: P2, max_range: f64) -> Vec<u32> {
-    let mut near: Vec<(f64, u32)> = places
+/// whose straight line to it meets no wall: no wall cell short of the last [`NEAR`] metres,
+/// and in those no sample (of `near`, the samples around `pos`) but the sample's own wall.
+fn seen_from(walls: &Raster, places: &[P2], pos: P2, near: &[P2], max_range: f64) -> Vec<u32> {
+    let mut by_range: Vec<(f64, u32)> = places
         .iter()
         .enumerate()
         .map(|(k, &v)| (dist(v, pos), k as u32))
-        .filter(|&(d, _)| d <= max_range && d > END_TOLERANCE)
+        .filter(|&(d, _)| d <= max_range && d > NEAR)
         .collect();
-    near.sort_by(|a, b| a.0.total_cmp(&b.0));
+    by_range.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut out = Vec::new();
-    for (d, k) in near {
+    for (d, k) in by_range {
         let v = places[k as usize];
         let dir = [(pos[0] - v[0]) / d, (pos[1] - v[1]) / d];
-        let open = walls
-            .first_hit(v, dir, d - END_TOLERANCE)
-            .is_none_or(|t| t > d - END_TOLERANCE);
+        let open = walls.first_hit(v, dir, d - NEAR).is_none()
+            && near
+                .iter()
+                .all(|&q| dist(q, pos) <= OWN || point_segment_distance(q, v, pos) > CROSS);
         if open {
             out.push(k);
             if out.len() == MAX_SEEN_FROM {
@@ -330,7 +372,12 @@ mod tests {
         // Two closed 2.4 m rooms side by side: their centres are closer than the spacing, but
         // neither sees into the other.
         let mut all = ring_samples(&[[0.0, 0.0], [2.4, 0.0], [2.4, 2.4], [0.0, 2.4]]);
-        all.extend(ring_samples(&[[2.4, 0.0], [4.8, 0.0], [4.8, 2.4], [2.4, 2.4]]));
+        all.extend(ring_samples(&[
+            [2.4, 0.0],
+            [4.8, 0.0],
+            [4.8, 2.4],
+            [2.4, 2.4],
+        ]));
         let mut samples = WallSamples {
             samples: all,
             ..Default::default()
@@ -346,6 +393,43 @@ mod tests {
         let right = report.viewpoints.iter().filter(|v| v[0] > 2.4).count();
         assert!(left >= 1 && right >= 1, "{:?}", report.viewpoints);
         assert_eq!(report.samples_seen, report.samples);
+    }
+
+    #[test]
+    fn the_far_face_of_a_thin_wall_is_not_seen() {
+        // A 10 cm partition across a 6 m room, both faces sampled; a place on each side.
+        let mut all = ring_samples(&[[0.0, 0.0], [6.0, 0.0], [6.0, 6.0], [0.0, 6.0]]);
+        let faces = [2.95, 3.05];
+        for y in faces {
+            all.extend(ring_samples(&[[0.0, y], [6.0, y]]));
+        }
+        let mut samples = WallSamples {
+            samples: all,
+            ..Default::default()
+        };
+        let xyz = floor([0.0, 0.0], [6.0, 6.0], |_| true);
+        let report = place(
+            &xyz,
+            &story(),
+            &mut samples,
+            &ViewpointsParams::default(),
+            10.0,
+        );
+        assert!(!report.viewpoints.is_empty());
+        for s in &samples.samples {
+            if !(s.pos[1] - 2.95)
+                .abs()
+                .min((s.pos[1] - 3.05).abs())
+                .lt(&1e-9)
+            {
+                continue;
+            }
+            for &k in &s.seen_from {
+                let v = samples.viewpoints[k as usize];
+                // Seen only from its own side of the partition.
+                assert_eq!(v[1] < 3.0, s.pos[1] < 3.0, "{:?} sees {:?}", v, s.pos);
+            }
+        }
     }
 
     #[test]
