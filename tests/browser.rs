@@ -32,6 +32,12 @@ async fn the_page_uploads_follows_and_draws_the_plan() {
     assert_eq!(seen["walls"], 2, "{seen}");
     assert_eq!(seen["arcs"], 1, "{seen}");
     assert!(seen["jobs"].as_u64().unwrap() >= 1);
+    // The fake plan has no viewpoints (an x, y, z cloud, no poses): a yellow warning says so.
+    let warning = seen["viewWarning"].as_str().unwrap();
+    assert!(warning.contains("No scanner poses"), "{seen}");
+    assert!(warning.contains("wall geometry alone"), "{seen}");
+    assert_eq!(seen["statusWarn"], true, "{seen}");
+    assert_eq!(seen["statusColor"], "rgb(122, 89, 0)", "{seen}");
     assert!(
         std::fs::metadata(&shot).unwrap().len() > 10_000,
         "a real screenshot"

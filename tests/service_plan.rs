@@ -201,6 +201,9 @@ async fn the_page_draws_a_simulated_scan() {
         common::browser_upload(&s.base, &scan.join("cloud.ply"), Some(&poses), &shot, None).await;
     assert_eq!(seen["status"], "succeeded");
     assert!(seen["walls"].as_u64().unwrap() >= 4, "{seen}");
+    // Poses were given: no warning, a green status.
+    assert_eq!(seen["viewWarning"], "", "{seen}");
+    assert_eq!(seen["statusWarn"], false, "{seen}");
 }
 
 /// The point limit is checked against the file's own count before the points are read: a PLY

@@ -47,6 +47,9 @@ try {
     legend: document.querySelectorAll(".legend span").length,
     arcLegend: !document.getElementById("arclegend").hidden,
     cancelHidden: document.getElementById("cancel").hidden,
+    viewWarning: document.getElementById("viewwarn").hidden ? "" : document.getElementById("viewwarn").textContent,
+    statusWarn: document.getElementById("status").classList.contains("warn"),
+    statusColor: getComputedStyle(document.getElementById("status")).color,
   }));
   await page.screenshot({ path: shot, fullPage: true });
   // Zoom in: the scale bar must follow.

@@ -1,15 +1,16 @@
 //! Simulates one building, plans it and scores the plan against the exact truth.
 //!
 //! Run with `cargo run --release -p asbuilt-plan --example score -- office_3story 1500000 12
-//! [--no-poses] [--registration T,R] [--noise S] [--mobile] [--out DIR]`. With `--out` it writes
+//! [--no-poses | --plain] [--registration T,R] [--noise S] [--mobile] [--out DIR]`. `--no-poses`
+//! keeps the scan ids (and times) but drops the poses or trajectory; `--plain` keeps x, y, z
+//! alone, shuffled. With `--out` it writes
 //! `plan.geojson` (with samples) and `truth.json` there, for looking at. BUILDING may also be
 //! `random_SEED` or `random30_SEED` (simulate/random.rs).
 
-use asbuilt_plan::cloud::Viewpoints;
 use asbuilt_plan::evaluate::{evaluate, EvaluateParams};
 use asbuilt_plan::io::geojson;
 use asbuilt_plan::progress::NoProgress;
-use asbuilt_plan::simulate::{random, scan, BuildingKind, ScanOptions};
+use asbuilt_plan::simulate::{random, scan, BuildingKind, Keep, ScanOptions};
 use asbuilt_plan::Params;
 
 fn main() {
@@ -22,7 +23,15 @@ fn main() {
     let building = random::from_name(&args[0])
         .or_else(|| BuildingKind::from_name(&args[0]).map(BuildingKind::build))
         .expect("a building name (or random_SEED, random30_SEED)");
+    let (keep, mode) = if args.iter().any(|a| a == "--plain") {
+        (Keep::Plain, "plain")
+    } else if args.iter().any(|a| a == "--no-poses") {
+        (Keep::ScanIds, "scan-ids")
+    } else {
+        (Keep::Poses, "poses")
+    };
     let mut options = ScanOptions {
+        keep,
         points: args
             .get(1)
             .and_then(|a| a.parse().ok())
@@ -46,25 +55,12 @@ fn main() {
     if let Some(n) = flag("--noise") {
         options.noise = n.parse().unwrap();
     }
-    let mut sim = scan(&building, &options).expect("options");
-    if args.iter().any(|a| a == "--no-poses") {
-        sim.cloud.viewpoints = Viewpoints::None;
-        sim.cloud.scan.clear();
-        sim.cloud.scan_ids.clear();
-    }
+    let sim = scan(&building, &options).expect("options");
     let start = std::time::Instant::now();
     let plan = match asbuilt_plan::plan(&sim.cloud, &params, &mut NoProgress) {
         Ok(plan) => plan,
         Err(e) => {
-            println!(
-                "row | {} | {} | no plan: {e} |",
-                args[0],
-                if args.iter().any(|a| a == "--no-poses") {
-                    "no"
-                } else {
-                    "yes"
-                }
-            );
+            println!("row | {} | {mode} | no plan: {e} |", args[0]);
             return;
         }
     };
@@ -75,14 +71,13 @@ fn main() {
     println!("timings_ms: {:?}", plan.timings_ms);
     // One table row: stories found of the truth's, then the worst story's scores.
     let found = e.stories.iter().filter(|s| s.plan_level.is_some()).count();
+    // OGC validity of the polygons as written (the pipeline's own test; GEOS in the e2e tests).
+    let problems = asbuilt_plan::validity::plan_problems(&plan);
+    let valid = problems.is_empty() && e.all_watertight();
+    let vp = &plan.input.viewpoints;
     println!(
-        "row | {} | {} | {}/{} (+{}) | {:.4} | {:.3} | {:.3} | {:.3} | {} |",
+        "row | {} | {mode} | {}/{} (+{}) | {:.4} | {:.3} | {:.3} | {:.3} | {} | {} | {:?} | {} |",
         args[0],
-        if args.iter().any(|a| a == "--no-poses") {
-            "no"
-        } else {
-            "yes"
-        },
         found,
         e.stories.len(),
         e.extra_stories,
@@ -90,7 +85,12 @@ fn main() {
         e.max_boundary_p95(),
         e.min_completeness(),
         e.max_height_error(),
-        plan.parameters["samples"]["cell_size_derived"]
+        plan.parameters["samples"]["cell_size_derived"],
+        if valid { "valid" } else { "INVALID" },
+        vp.source,
+        vp.rests_on
+            .map(|f| format!("{:.2}", f))
+            .unwrap_or_else(|| "-".into()),
     );
     if let Some(dir) = flag("--out") {
         std::fs::create_dir_all(&dir).unwrap();

@@ -224,17 +224,40 @@ fn real(args: &[String]) {
     poses::load_poses(&mut posed, sidecar).expect("poses");
     let (with, _) = plan(&posed);
     let (without, secs) = plan(&bare);
-    println!("| story | area with poses m² | area without m² | IoU |");
-    println!("|---|---|---|---|");
-    for (a, b) in with.stories.iter().zip(&without.stories) {
+    // Plain x, y, z: no scan ids and no times either.
+    let mut xyz = bare.clone();
+    xyz.scan.clear();
+    xyz.scan_ids.clear();
+    xyz.time.clear();
+    let (plain, plain_secs) = plan(&xyz);
+    println!(
+        "| story | area with poses m² | area without m² | IoU | area plain x, y, z m² | IoU |"
+    );
+    println!("|---|---|---|---|---|---|");
+    for ((a, b), c) in with
+        .stories
+        .iter()
+        .zip(&without.stories)
+        .zip(&plain.stories)
+    {
         println!(
-            "| {} | {:.2} | {:.2} | {:.4} |",
+            "| {} | {:.2} | {:.2} | {:.4} | {:.2} | {:.4} |",
             a.level,
             a.area(),
             b.area(),
-            iou(&a.polygons, &b.polygons, 0.005)
+            iou(&a.polygons, &b.polygons, 0.005),
+            c.area(),
+            iou(&a.polygons, &c.polygons, 0.005)
         );
     }
+    println!(
+        "plain x, y, z: {:.1} s, valid {}, viewpoints {:?}, rests on {:?}; notes {:#?}",
+        plain_secs,
+        asbuilt_plan::validity::plan_problems(&plain).is_empty(),
+        plain.input.viewpoints.source,
+        plain.input.viewpoints.rests_on,
+        plain.notes
+    );
     println!(
         "\nstories with poses {}, without {}; plan without poses {:.1} s",
         with.stories.len(),
@@ -279,6 +302,11 @@ fn real(args: &[String]) {
         std::fs::write(
             format!("{dir}/without-poses.geojson"),
             geojson::to_geojson_string(&without),
+        )
+        .unwrap();
+        std::fs::write(
+            format!("{dir}/plain.geojson"),
+            geojson::to_geojson_string(&plain),
         )
         .unwrap();
     }

@@ -1,11 +1,12 @@
 //! The one place that lists the stages in order: cloud in, floor plan out.
 
+use std::cell::RefCell;
 use std::time::Instant;
 
 use crate::boundary::{trace_boundary, BoundaryError};
 use crate::cancel::{Cancel, Cancelled};
 use crate::cleanup::clean_labels;
-use crate::cloud::PointCloud;
+use crate::cloud::{PointCloud, Viewpoints};
 use crate::fitting::{fit_walls, FittingError};
 use crate::labeling::{label_with_report, LabelingError};
 use crate::params::Params;
@@ -17,7 +18,7 @@ use crate::samples::{
 use crate::smoothing::{smooth_samples, SmoothingError};
 use crate::stories::{split_cloud_stories, StoriesError, Story};
 use crate::validity::{make_valid, Grid};
-use crate::viewpoints::{self, ViewpointsReport};
+use crate::viewpoints::{self, OpenSpaceStory, ViewpointSource, ViewpointsReport};
 
 /// Why a plan could not be made. Each variant names the stage.
 #[derive(Debug, thiserror::Error)]
@@ -166,11 +167,14 @@ pub fn plan(
         StoryBounds::measure_all(&cloud.xyz, &stories)
     });
     cancel.check()?;
+    // Plain x, y, z: pseudo-viewpoints in the open space the samples enclose, per story.
+    let plain = matches!(seen_from, Viewpoints::None) && params.viewpoints.open_space;
+    let open_space = RefCell::new(Vec::new());
     let mut sample = |story: &Story, cancel: &Cancel| {
         let p = &params.samples;
         check_params(p, story)?;
         let frame = bounds[story.level].frame(story, p.cell_size)?;
-        sample_walls_in(
+        let mut samples = sample_walls_in(
             cloud,
             seen_from,
             story,
@@ -178,10 +182,24 @@ pub fn plan(
             &frame,
             Some(&blocks.spans(story)),
             cancel,
-        )
+        )?;
+        // Timed with sampling.
+        if plain {
+            let placed = viewpoints::open_space::place(
+                &cloud.xyz,
+                story,
+                &mut samples,
+                &params.viewpoints,
+                p.max_range,
+            );
+            open_space.borrow_mut().push(placed);
+            cancel.check()?;
+        }
+        Ok(samples)
     };
     let mut summary = CloudSummary::of(cloud, cloud.len() as u64);
     summary.viewpoints = estimate.report;
+    summary.open_space = Some(&open_space);
     plan_stories(
         &summary,
         &stories,
@@ -201,6 +219,8 @@ pub(crate) struct CloudSummary<'a> {
     pub points: u64,
     /// The viewpoints planned with: given or estimated.
     pub viewpoints: ViewpointsReport,
+    /// Plain x, y, z: the pseudo-viewpoints placed per story as the stories are sampled.
+    pub open_space: Option<&'a RefCell<Vec<OpenSpaceStory>>>,
 }
 
 impl<'a> CloudSummary<'a> {
@@ -209,6 +229,7 @@ impl<'a> CloudSummary<'a> {
             cloud,
             points,
             viewpoints: ViewpointsReport::default(),
+            open_space: None,
         }
     }
 }
@@ -299,6 +320,16 @@ pub(crate) fn plan_stories(
     timings.add("total", start.elapsed().as_secs_f64() * 1e3);
     progress.report(Stage::Write, 1.0);
     let mut viewpoints = input.viewpoints.clone();
+    if let Some(placed) = input.open_space {
+        viewpoints.open_space = placed.take();
+        let any = viewpoints
+            .open_space
+            .iter()
+            .any(|s| !s.viewpoints.is_empty());
+        if any && viewpoints.source == ViewpointSource::None {
+            viewpoints.source = ViewpointSource::OpenSpace;
+        }
+    }
     viewpoints.rests_on = (evidence.1 > 0.0).then(|| evidence.0 / evidence.1);
     notes.extend(viewpoints::describe(&viewpoints));
     Ok(FloorPlan {

@@ -424,7 +424,10 @@ fn dense_office_as_8_cm_voxels_plans_at_a_coarser_cell() {
     // heights cannot be closer than that.
     assert_class(&with, "voxel office with poses", 0.97, 0.045, 0.8);
     assert!(with.max_height_error() <= 0.045, "{}", with.summary());
-    assert_class(&without, "voxel office without poses", 0.88, 0.6, 0.8);
+    // Without poses or scan ids the plan rests on pseudo-viewpoints in open space: IoU 0.90
+    // (geometry alone) became 0.97 and p95 0.44 m became 4 cm, but completeness at 5 cm fell
+    // from 0.85 to 0.79 (0.82 with poses).
+    assert_class(&without, "voxel office without poses", 0.95, 0.045, 0.75);
 }
 
 #[test]

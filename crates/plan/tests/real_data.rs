@@ -232,3 +232,61 @@ fn e57_and_laz_with_its_sidecar_plan_to_the_same_closed_apartment() {
         "E57 and LAZ plans overlap by IoU {overlap}"
     );
 }
+
+/// The LAZ without its sidecar: the scanners are located from their blind cones (within 10 cm
+/// of the sidecar's) and the plan matches the one with poses; as plain x, y, z (no scan ids)
+/// the plan rests on pseudo-viewpoints in open space and still holds every real scanner.
+#[test]
+fn laz_without_its_sidecar_or_scan_ids_plans_close_to_the_plan_with_poses() {
+    use asbuilt_plan::viewpoints::ViewpointSource;
+    let Some(dir) = folder() else { return };
+    let params = Params::default();
+    let bare = io::read_cloud(&dir.join("apartment-merged.laz")).unwrap();
+    let mut posed = bare.clone();
+    poses::load_poses(&mut posed, &dir.join("apartment-merged.poses.json")).unwrap();
+    let mut plain = bare.clone();
+    plain.scan.clear();
+    plain.scan_ids.clear();
+    plain.time.clear();
+    let with = asbuilt_plan::plan(&posed, &params, &mut NoProgress).unwrap();
+    let without = asbuilt_plan::plan(&bare, &params, &mut NoProgress).unwrap();
+    let xyz = asbuilt_plan::plan(&plain, &params, &mut NoProgress).unwrap();
+    let Viewpoints::Static(truth) = &posed.viewpoints else {
+        panic!("no poses in the sidecar")
+    };
+    let v = &without.input.viewpoints;
+    assert_eq!(v.source, ViewpointSource::Estimated);
+    assert_eq!(v.scans.len(), 16);
+    for s in &v.scans {
+        let t = truth.iter().find(|p| p.index == s.index).unwrap();
+        let p = s.position.expect("every scan located");
+        let err = (p[0] - t.position[0]).hypot(p[1] - t.position[1]);
+        assert!(err < 0.10, "scan {}: {err} m off", s.index);
+    }
+    let story = |p: &FloorPlan| p.stories[0].polygons.clone();
+    let overlap = iou(&story(&with), &story(&without), 0.005);
+    assert!(overlap >= 0.98, "without the sidecar: IoU {overlap}");
+    // The long corridor wall comes out in two runs (5.1 m the longest), so only the open
+    // floor is checked: every real scanner stands in it.
+    let holds_the_scanners = |plan: &FloorPlan| {
+        watertight(&plan.stories[0].polygons).unwrap();
+        for p in truth {
+            let at = [p.position[0], p.position[1]];
+            assert!(
+                inside(&plan.stories[0].polygons, at),
+                "scanner at {at:?} outside"
+            );
+        }
+    };
+    holds_the_scanners(&without);
+    // Plain x, y, z.
+    let v = &xyz.input.viewpoints;
+    assert_eq!(v.source, ViewpointSource::OpenSpace, "{:?}", xyz.notes);
+    assert!(v.open_space[0].viewpoints.len() >= 3, "{v:?}");
+    assert!(v.rests_on.is_some_and(|f| f > 0.5), "{v:?}");
+    assert!(xyz.notes.iter().any(|n| n.contains("pseudo-viewpoints")));
+    let overlap = iou(&story(&with), &story(&xyz), 0.005);
+    assert!(overlap >= 0.95, "plain x, y, z: IoU {overlap}");
+    assert!(asbuilt_plan::validity::plan_problems(&xyz).is_empty());
+    holds_the_scanners(&xyz);
+}

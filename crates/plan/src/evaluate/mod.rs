@@ -448,6 +448,12 @@ mod tests {
             .holes
             .push(vec![[5.0, 5.0], [5.0, 6.0], [6.0, 6.0]]);
         assert!(watertight(&[outside_hole]).is_err());
+        // A hole touching its exterior at one point, first there, is inside (OGC valid).
+        let mut touching = square(0.0, 0.0, 4.0);
+        touching
+            .holes
+            .push(vec![[2.0, 0.0], [3.0, 1.0], [1.0, 1.0]]);
+        assert_eq!(watertight(&[touching]), Ok(()));
         // Two squares sharing one corner are fine; a closed repeated vertex is tolerated.
         let mut closed = square(0.0, 0.0, 1.0);
         closed.exterior.push([0.0, 0.0]);

@@ -83,9 +83,18 @@ pub fn watertight(polygons: &[Polygon]) -> Result<(), String> {
             if geom::ring_signed_area(&r).abs() <= 0.0 {
                 return Err(format!("{what} has zero area"));
             }
+            // A hole may touch its exterior at a point (OGC): judge it by a vertex off the
+            // exterior's boundary. Crossings are caught below.
+            let on_exterior = |q: P2| {
+                (0..p.exterior.len()).any(|k| {
+                    let (a, b) = (p.exterior[k], p.exterior[(k + 1) % p.exterior.len()]);
+                    geom::point_segment_distance(q, a, b) <= 1e-9
+                })
+            };
             if hi > 0
-                && !crate::simulate::rects::point_in_ring(r[0], &p.exterior)
-                && !p.exterior.contains(&r[0])
+                && r.iter()
+                    .find(|&&q| !on_exterior(q))
+                    .is_some_and(|&q| !crate::simulate::rects::point_in_ring(q, &p.exterior))
             {
                 return Err(format!("{what} is not inside its exterior"));
             }

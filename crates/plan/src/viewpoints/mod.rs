@@ -7,13 +7,14 @@
 //!   its scanner position ([`cone`]).
 //! - A mobile scan with times but no trajectory: the same cone, fitted to the points of short
 //!   time windows, gives the path ([`path`]).
-//! - Plain x, y, z: [`open_space`] places pseudo-viewpoints in the open floor the story's
-//!   floor and ceiling points cover, after sampling.
+//! - Plain x, y, z: [`open_space`] places pseudo-viewpoints in the open space each story's wall
+//!   samples enclose, after sampling, where floor or ceiling points were scanned.
 //!
 //! Estimated viewpoints are used exactly as given ones; [`ViewpointsReport`] says which are
 //! which, with a residual per scan.
 
 pub(crate) mod cone;
+pub(crate) mod open_space;
 pub(crate) mod path;
 pub(crate) mod raster;
 
@@ -34,6 +35,16 @@ pub struct ViewpointsParams {
     pub max_points_per_scan: usize,
     /// Points per time window of a mobile scan (of the evenly thinned cloud).
     pub window_points: usize,
+    /// Plain x, y, z (no poses, scan ids or times): place pseudo-viewpoints in the open space
+    /// the wall samples enclose ([`open_space`]). `false` plans such clouds on geometry alone.
+    pub open_space: bool,
+    /// Pseudo-viewpoints stand at least this far from every wall sample, metres.
+    pub open_space_clearance: f64,
+    /// Pseudo-viewpoints stand at least this far apart, metres.
+    pub open_space_spacing: f64,
+    /// A place is enclosed when at most this fraction of the directions from it leave the wall
+    /// samples without meeting one (doorways, windows and gaps let a few through).
+    pub open_space_max_escape: f64,
 }
 
 impl Default for ViewpointsParams {
@@ -42,6 +53,10 @@ impl Default for ViewpointsParams {
             estimate: true,
             max_points_per_scan: 20_000,
             window_points: 8_000,
+            open_space: true,
+            open_space_clearance: 0.4,
+            open_space_spacing: 3.0,
+            open_space_max_escape: 0.2,
         }
     }
 }
@@ -57,6 +72,9 @@ pub enum ViewpointsError {
 pub const RANGES: &[ParamRange] = &[
     ParamRange::new("max_points_per_scan", 1_000.0, 10_000_000.0, ""),
     ParamRange::new("window_points", 500.0, 1_000_000.0, ""),
+    ParamRange::new("open_space_clearance", 0.1, 10.0, "m"),
+    ParamRange::new("open_space_spacing", 0.5, 100.0, "m"),
+    ParamRange::new("open_space_max_escape", 0.0, 1.0, ""),
 ];
 
 impl ViewpointsParams {
@@ -66,7 +84,10 @@ impl ViewpointsParams {
             within(RANGES, name, v).map_err(|(name, why)| ViewpointsError::BadParam { name, why })
         };
         check("max_points_per_scan", self.max_points_per_scan as f64)?;
-        check("window_points", self.window_points as f64)
+        check("window_points", self.window_points as f64)?;
+        check("open_space_clearance", self.open_space_clearance)?;
+        check("open_space_spacing", self.open_space_spacing)?;
+        check("open_space_max_escape", self.open_space_max_escape)
     }
 }
 
@@ -442,8 +463,14 @@ pub fn describe(report: &ViewpointsReport) -> Vec<String> {
         }
         ViewpointSource::OpenSpace => {
             let placed: usize = report.open_space.iter().map(|s| s.viewpoints.len()).sum();
+            let given = match report.scans.len() {
+                0 => "no scanner poses, scan ids or times were given".to_string(),
+                n => format!(
+                    "no scanner pose was given and none of the {n} scans could be located from the blind spot under the scanner"
+                ),
+            };
             notes.push(format!(
-                "no scanner poses, scan ids or times were given: {placed} pseudo-viewpoints were placed in the open floor the floor and ceiling points cover"
+                "{given}: {placed} pseudo-viewpoints were placed in the open space the wall samples enclose (far from every wall, where floor or ceiling points were scanned) and used as scanner positions"
             ));
             notes.push(format!(
                 "{share} was forced inside by lines of sight from these pseudo-viewpoints; the rest was labelled from the wall geometry"
