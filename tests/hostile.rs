@@ -294,7 +294,10 @@ async fn the_real_pipeline_stops_inside_a_stage_at_its_time_limit(env: &Env) {
     let s = env.serve("d", &["--job-timeout", "1", "--workers", "1"]);
     let c = Client::new(&s.base, None);
     let res = c
-        .req(Method::POST, "/v1/jobs?samples.cell_size=0.01&samples.derive_cell_size=false")
+        .req(
+            Method::POST,
+            "/v1/jobs?samples.cell_size=0.01&samples.derive_cell_size=false",
+        )
         .body(cloud)
         .send()
         .await

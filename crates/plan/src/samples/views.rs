@@ -404,7 +404,10 @@ mod tests {
             ]),
             ..Default::default()
         };
-        assert_eq!(Views::new(&cloud, &cloud.viewpoints, &ground).viewpoints, vec![[2.0, 2.0]]);
+        assert_eq!(
+            Views::new(&cloud, &cloud.viewpoints, &ground).viewpoints,
+            vec![[2.0, 2.0]]
+        );
         // Scanners far from every story (poses with unknown heights) are all listed.
         let far = PointCloud {
             viewpoints: Viewpoints::Static(vec![
@@ -413,7 +416,10 @@ mod tests {
             ]),
             ..cloud
         };
-        assert_eq!(Views::new(&far, &far.viewpoints, &ground).viewpoints.len(), 2);
+        assert_eq!(
+            Views::new(&far, &far.viewpoints, &ground).viewpoints.len(),
+            2
+        );
     }
 
     #[test]
