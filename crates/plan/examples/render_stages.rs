@@ -63,7 +63,11 @@ fn main() {
         cloud.scan.clear();
         cloud.scan_ids.clear();
     }
-    let params = Params::default();
+    let mut params = Params::default();
+    while let Some(i) = args.iter().position(|a| a == "--param") {
+        params.set(&args[i + 1]).expect("a parameter");
+        args.drain(i..i + 2);
+    }
     let plan = asbuilt_plan::plan(&cloud, &params, &mut asbuilt_plan::progress::NoProgress);
     match &plan {
         Ok(plan) => {
@@ -137,7 +141,13 @@ fn main() {
         draw(&labeled, &[], &truth, &poses, view),
     )
     .unwrap();
+    let mut raster = Raster::new(&cloud, story, view);
+    raster.labels(&labeled, &truth);
+    std::fs::write(out.join("labels.png"), raster.encode()).unwrap();
     let report = clean_labels(&mut labeled, &params.cleanup);
+    let mut raster = Raster::new(&cloud, story, view);
+    raster.labels(&labeled, &truth);
+    std::fs::write(out.join("cleaned.png"), raster.encode()).unwrap();
     eprintln!("cleanup: {report:?}");
     std::fs::write(
         out.join("cleaned.svg"),
@@ -146,11 +156,33 @@ fn main() {
     .unwrap();
     let boundary = trace_boundary(&labeled).unwrap();
     let fitted = fit_walls(&labeled, &boundary, &params.fitting, &Cancel::never()).unwrap();
+    if let Some(v) = view {
+        let within = |p: &P2| p[0] >= v[0] && p[0] <= v[2] && p[1] >= v[1] && p[1] <= v[3];
+        for w in fitted.walls.iter().filter(|w| w.points.iter().any(within)) {
+            eprintln!("wall {:?} support {} {:?}", w.model, w.support, w.points);
+        }
+        eprintln!("fitting notes: {:?}", fitted.notes);
+    }
     let rings: Vec<Vec<P2>> = fitted
         .polygons
         .iter()
         .flat_map(|p| std::iter::once(p.exterior.clone()).chain(p.holes.clone()))
         .collect();
+    // The traced boundary in orange and the fitted rings in black, over the cleaned labels.
+    for poly in &boundary.polygons {
+        for ring in std::iter::once(&poly.exterior).chain(&poly.holes) {
+            let pts: Vec<P2> = ring
+                .vertices
+                .iter()
+                .map(|&v| labeled.mesh.vertices[v as usize])
+                .collect();
+            raster.ring(&pts, [255, 140, 0]);
+        }
+    }
+    for ring in &rings {
+        raster.ring(ring, [0, 0, 0]);
+    }
+    std::fs::write(out.join("fitted.png"), raster.encode()).unwrap();
     std::fs::write(
         out.join("fitted.svg"),
         draw(&labeled, &rings, &truth, &poses, view),
@@ -292,6 +324,58 @@ impl Raster {
             for dx in -r..=r {
                 self.set(x as i64 + dx, y as i64 + dy, c);
             }
+        }
+    }
+
+    /// A filled triangle.
+    fn triangle(&mut self, t: [P2; 3], c: [u8; 3]) {
+        let q = t.map(|p| self.pixel(p));
+        let (x0, x1) = (
+            q.iter().map(|p| p.0).fold(f64::MAX, f64::min),
+            q.iter().map(|p| p.0).fold(f64::MIN, f64::max),
+        );
+        let (y0, y1) = (
+            q.iter().map(|p| p.1).fold(f64::MAX, f64::min),
+            q.iter().map(|p| p.1).fold(f64::MIN, f64::max),
+        );
+        let (x0, x1) = (x0.max(0.0) as i64, x1.min(self.w as f64) as i64);
+        let (y0, y1) = (y0.max(0.0) as i64, y1.min(self.h as f64) as i64);
+        let side = |a: (f64, f64), b: (f64, f64), p: (f64, f64)| {
+            (b.0 - a.0) * (p.1 - a.1) - (b.1 - a.1) * (p.0 - a.0)
+        };
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let p = (x as f64 + 0.5, y as f64 + 0.5);
+                let s = [
+                    side(q[0], q[1], p),
+                    side(q[1], q[2], p),
+                    side(q[2], q[0], p),
+                ];
+                if s.iter().all(|&v| v >= 0.0) || s.iter().all(|&v| v <= 0.0) {
+                    self.set(x, y, c);
+                }
+            }
+        }
+    }
+
+    /// The labeled mesh: inside light blue, forced inside dark blue, forced outside grey, with
+    /// the samples in green and the truth in red.
+    fn labels(&mut self, l: &LabeledMesh, truth: &[Vec<P2>]) {
+        let m = &l.mesh;
+        for (t, tri) in m.triangles.iter().enumerate() {
+            let c = match (l.forced[t], l.inside[t]) {
+                (Some(true), _) => [50, 100, 200],
+                (Some(false), _) => [190, 190, 190],
+                (None, true) => [170, 220, 255],
+                (None, false) => [255, 255, 255],
+            };
+            self.triangle(tri.map(|v| m.vertices[v as usize]), c);
+        }
+        for ring in truth {
+            self.ring(ring, [220, 30, 30]);
+        }
+        for p in &m.vertices[..m.n_samples] {
+            self.dot(*p, 1, [0, 150, 0]);
         }
     }
 

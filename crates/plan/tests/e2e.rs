@@ -422,7 +422,9 @@ fn dense_office_as_8_cm_voxels_plans_at_a_coarser_cell() {
     assert_eq!(samples["cell_size"], 0.05, "{samples}");
     // Walls, floors and ceilings snap to voxel centres up to 4 cm off: the boundary and the
     // heights cannot be closer than that.
-    assert_class(&with, "voxel office with poses", 0.97, 0.045, 0.8);
+    // Completeness was 0.82: a room face that growing gave to the corridor face's model, 8 cm
+    // away across the wall, took the wall between two doors out of the plan.
+    assert_class(&with, "voxel office with poses", 0.97, 0.045, 0.88);
     assert!(with.max_height_error() <= 0.045, "{}", with.summary());
     // Without poses or scan ids the plan rests on pseudo-viewpoints in open space: IoU 0.90
     // (geometry alone) became 0.97 and p95 0.44 m became 4 cm, but completeness at 5 cm fell
@@ -452,10 +454,10 @@ fn a_ceiling_only_capture_plans_from_its_walls_and_says_the_floor_was_assumed() 
 #[test]
 fn thin_partitions_and_closets() {
     for (_, e) in class_runs(BuildingKind::Partitions, 400_000, 36) {
-        // Every room and all three 1.2 × 1.5 m closets are there. Completeness is below the
-        // issue's 0.95: the 30-70 cm wall stubs between a door and a corner come out filled
-        // in (labeling and cleanup of thin walls).
-        assert_class(&e, "partitions", 0.99, 0.02, 0.9);
+        // Every room and all three 1.2 × 1.5 m closets are there, and the 25-95 cm walls
+        // between a door and a corner (completeness was 0.93: growing gave their room faces
+        // to the corridor face's model, and the partition ran on to the corridor).
+        assert_class(&e, "partitions", 0.99, 0.02, 0.95);
         assert!(e.max_height_error() <= 0.02, "{}", e.summary());
     }
 }

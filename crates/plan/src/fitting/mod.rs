@@ -178,7 +178,16 @@ pub fn fit_walls(
     let models = consensus.models;
     let mut assigned = consensus.assigned;
     grow::reset_small_components(&samples, &mut assigned, params.min_component);
-    grow::grow(&samples, &models, &mut assigned, params.grow_hops, cancel)?;
+    // A face more than half the inlier band behind a model is another wall face.
+    let behind = params.inlier_distance / 2.0;
+    grow::grow(
+        &samples,
+        &models,
+        &mut assigned,
+        params.grow_hops,
+        behind,
+        cancel,
+    )?;
 
     let ring_pos: Vec<Vec<P2>> = rings
         .iter()
