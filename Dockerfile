@@ -6,7 +6,7 @@
 # See deploy/README.md for the settings that matter.
 
 # Build stage. Its cargo command is the one .ci/run runs on every change
-# (tests/deploy_manifests.rs checks that they stay equal), so it is known to work.
+# (tests/service/deploy_manifests.rs checks that they stay equal), so it is known to work.
 FROM rust:1.95-slim-bookworm AS build
 WORKDIR /src
 COPY . .
