@@ -6,11 +6,12 @@
 # See deploy/README.md for the settings that matter.
 
 # Build stage. Its cargo command is the one .ci/run runs on every change
-# (tests/deploy_manifests.rs checks that they stay equal), so it is known to work.
+# (tests/service/deploy_manifests.rs checks that they stay equal), so it is known to work.
+# No default features: the image leaves out `asbuilt bench`, a developer's tool.
 FROM rust:1.95-slim-bookworm AS build
 WORKDIR /src
 COPY . .
-RUN cargo build --release --locked --bin asbuilt
+RUN cargo build --release --locked --no-default-features --bin asbuilt
 
 # Runtime stage: Debian slim plus the CA roots for TLS to S3; nothing is fetched at run time.
 FROM debian:bookworm-slim AS runtime

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # What the service tests need beyond Rust: node + npm and Debian's chromium for the browser
-# test (tests/browser.rs), and the pinned playwright-core from tests/browser/package-lock.json.
+# test (tests/service/browser.rs), and the pinned playwright-core from tests/browser/package-lock.json.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 

@@ -31,6 +31,7 @@ enum Command {
     /// Ask a running server or worker for /healthz; exit 0 when healthy (for container health checks).
     Healthcheck(cli::healthcheck::HealthcheckArgs),
     /// Time the pipeline per stage on generated buildings of 1 M to 70 M points (see benches/README.md).
+    #[cfg(feature = "bench")]
     Bench(cli::bench::BenchArgs),
 }
 
@@ -44,9 +45,11 @@ fn main() -> ExitCode {
         Command::Migrate(a) => cli::serve::migrate(a),
         Command::Worker(a) => cli::serve::worker(a),
         Command::Healthcheck(a) => cli::healthcheck::run(a),
+        #[cfg(feature = "bench")]
         Command::Bench(a) => cli::bench::run(a),
     };
     // `asbuilt bench` measures each child's peak memory this way.
+    #[cfg(feature = "bench")]
     if let Some(path) = std::env::var_os(cli::bench::PEAK_RSS_ENV) {
         cli::bench::write_peak_rss(std::path::Path::new(&path));
     }

@@ -1,5 +1,6 @@
 //! The command-line front ends of the pipeline. Each subcommand is a file with `Args` and `run`.
 
+#[cfg(feature = "bench")]
 pub mod bench;
 pub mod healthcheck;
 pub mod info;

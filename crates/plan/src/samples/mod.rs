@@ -6,6 +6,7 @@
 //! before any neighbourhood is gathered; the rest run the tests of [`cell`] in the paper's
 //! order. With scanner poses, [`views`] orients the normals and drops far samples.
 
+mod bounds;
 mod cell;
 pub(crate) mod grid;
 mod spacing;
@@ -21,8 +22,8 @@ use crate::cloud::{PointCloud, Viewpoints};
 use crate::geom::P2;
 use crate::params::{within, ParamRange};
 use crate::stories::Story;
+pub use bounds::{Blocks, CellRange, GridFrame, StoryBounds};
 use cell::{Reject, Tests};
-pub use grid::{Blocks, CellRange, GridFrame, StoryBounds};
 use grid::{Carry, Grid, Points, Screen, Summary};
 pub use spacing::SpacingProbe;
 use views::Views;

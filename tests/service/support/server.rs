@@ -1,7 +1,4 @@
-//! Helpers for the service tests: a server on a free port with a temporary data directory.
-#![allow(dead_code)]
-
-pub mod contract;
+//! The service in process: a server on a free port with a temporary data directory.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -28,7 +25,7 @@ pub fn config(dir: &std::path::Path) -> Config {
         workers: 2,
         lease_secs: 2,
         shutdown_timeout_secs: 5,
-        // These tests poll fast; the limits have tests of their own (tests/hostile.rs).
+        // These tests poll fast; the limits have tests of their own (the `hostile` module).
         rate_limit: 0.0,
         ..Config::default()
     }
@@ -122,22 +119,6 @@ pub fn xyz(n: usize) -> String {
     (0..n)
         .map(|i| format!("{}.0 {}.5 1.25\n", i % 7, i % 5))
         .collect()
-}
-
-/// Every file under a folder.
-pub fn files_under(dir: &std::path::Path) -> Vec<PathBuf> {
-    let mut out = vec![];
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
-            if e.path().is_dir() {
-                stack.push(e.path());
-            } else {
-                out.push(e.path());
-            }
-        }
-    }
-    out
 }
 
 /// Asserts an error response's status, code and (optionally) param.

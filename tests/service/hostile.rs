@@ -2,25 +2,23 @@
 //! or hostile client would, on SQLite and on PostgreSQL, and asserts the outcome (the job ends,
 //! the worker is free, the process exits, the connection closes, the request is refused).
 //! How long each outcome took is printed as `hostile: CASE [BACKEND] WHAT: N ms`, a benchmark
-//! figure and not an assertion (`cargo test --test hostile -- --nocapture`; with
+//! figure and not an assertion (`cargo test --test service hostile:: -- --nocapture`; with
 //! `ASBUILT_HOSTILE_REPORT=FILE` the lines are also appended to FILE).
 //!
 //! Jobs run on the fake pipeline (`--fake-pipeline-ms`; `#hang:SECS` in a cloud makes it stick
 //! in the fit stage without looking at its stop token), except one case that stops the real
 //! pipeline at its time limit.
 
-mod support;
-
 use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
+use crate::support::engines::{postgres_only, Engines};
+use crate::support::files_under;
+use crate::support::process::{fake_cloud, run_to_exit, serve, Client, Server};
+use crate::support::wait::{drain_jobs, eventually};
 use reqwest::Method;
 use serde_json::Value;
-use support::engines::{postgres_only, Engines};
-use support::process::{
-    drain_jobs, eventually, fake_cloud, files_under, run_to_exit, serve, Client, Server,
-};
 
 const ACME: &str = "acme-key-0000000000001";
 const BOLT: &str = "bolt-key-0000000000002";

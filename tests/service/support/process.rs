@@ -1,9 +1,6 @@
 //! Server processes for the tests that need a real `asbuilt serve`: start one and read the
-//! address it prints, send it signals, wait for it to exit, and poll for an outcome.
+//! address it prints, send it signals, wait for it to exit, and talk to it as one tenant.
 
-#![allow(dead_code)]
-
-use std::future::Future;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Output, Stdio};
@@ -136,23 +133,6 @@ impl Drop for Server {
     }
 }
 
-/// Polls `f` every 50 ms until it gives a value or `timeout` passes (then panics naming
-/// `what`). Returns the value and how long it took.
-pub async fn eventually<T, F, Fut>(what: &str, timeout: Duration, mut f: F) -> (T, Duration)
-where
-    F: FnMut() -> Fut,
-    Fut: Future<Output = Option<T>>,
-{
-    let start = Instant::now();
-    loop {
-        if let Some(v) = f().await {
-            return (v, start.elapsed());
-        }
-        assert!(start.elapsed() < timeout, "{what}: not within {timeout:?}");
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    }
-}
-
 /// An HTTP client for one tenant's key (none in development mode).
 #[derive(Clone)]
 pub struct Client {
@@ -210,23 +190,6 @@ impl Client {
     }
 }
 
-/// Waits until every job of `client`'s tenant has reached a terminal status; returns them.
-pub async fn drain_jobs(client: &Client, timeout: Duration) -> Vec<Value> {
-    let (jobs, _) = eventually("every job finished", timeout, || async {
-        let jobs = client.jobs().await;
-        jobs.iter()
-            .all(|j| {
-                matches!(
-                    j["status"].as_str(),
-                    Some("succeeded" | "failed" | "cancelled")
-                )
-            })
-            .then_some(jobs)
-    })
-    .await;
-    jobs
-}
-
 /// A small cloud for the fake pipeline: `n` points, and any marker lines (`#hang:5`).
 pub fn fake_cloud(n: usize, markers: &[&str]) -> String {
     let mut text: String = (0..n).map(|i| format!("{i} {i} {i}\n")).collect();
@@ -235,20 +198,4 @@ pub fn fake_cloud(n: usize, markers: &[&str]) -> String {
         text.push('\n');
     }
     text
-}
-
-/// Every file under `dir` (the blob store's leftovers).
-pub fn files_under(dir: &Path) -> Vec<PathBuf> {
-    let mut out = vec![];
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
-            if e.path().is_dir() {
-                stack.push(e.path());
-            } else {
-                out.push(e.path());
-            }
-        }
-    }
-    out
 }

@@ -1,14 +1,13 @@
 //! The queue and storage suite, run on both backends: SQLite with a local directory (the
 //! embedded default) and PostgreSQL with S3 (scale-out). Every test runs once per backend, on
 //! real engines; the PostgreSQL + S3 half skips without `ASBUILT_TEST_POSTGRES` and
-//! `ASBUILT_TEST_S3_ENDPOINT` (see tests/support/engines.rs), and fails without them under CI.
-
-mod support;
+//! `ASBUILT_TEST_S3_ENDPOINT` (see support/engines.rs), and fails without them under CI.
 
 use std::collections::BTreeSet;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use crate::support::engines::{engines, unique, Engines};
 use asbuilt::queue::postgres::PgJobStore;
 use asbuilt::queue::sqlite::SqliteJobStore;
 use asbuilt::queue::{
@@ -19,7 +18,6 @@ use asbuilt::storage::{local, s3, BlobError, BlobStore, ByteStream};
 use bytes::Bytes;
 use futures_util::StreamExt;
 use sha2::{Digest, Sha256};
-use support::engines::{engines, unique, Engines};
 
 /// One backend pair, fresh for one test.
 struct Backend {

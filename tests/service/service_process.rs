@@ -1,12 +1,10 @@
 //! The `asbuilt serve` process: durability across SIGKILL, development mode, `migrate`.
 
-mod support;
-
 use std::process::Command;
 use std::time::{Duration, Instant};
 
+use crate::support::process::serve;
 use serde_json::Value;
-use support::process::serve;
 
 fn get(url: &str) -> Value {
     reqwest::blocking_get(url)

@@ -7,18 +7,16 @@
 //! stage, a plan made by the real writers, and a log line per completed run, which is how
 //! completions are counted. Needs `ASBUILT_TEST_POSTGRES` and `ASBUILT_TEST_S3_ENDPOINT`.
 
-mod support;
-
 use std::collections::BTreeMap;
 use std::net::TcpListener;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use crate::support::engines::{engines, unique, Engines};
 use futures_util::TryStreamExt;
 use object_store::ObjectStore;
 use sqlx::Row;
-use support::engines::{engines, unique, Engines};
 
 const JOBS: usize = 30;
 const STAGE_MS: &str = "250";

@@ -2,7 +2,7 @@
 //! through the page, follow the progress, and check the plan is drawn. Skips with a reason
 //! when node or chromium are missing, except under CI.
 
-mod common;
+use crate::support::server;
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -11,7 +11,7 @@ use asbuilt::worker::fake::FakePipeline;
 
 #[tokio::test(flavor = "multi_thread")]
 async fn the_page_uploads_follows_and_draws_the_plan() {
-    if common::browser_missing().is_some() {
+    if server::browser_missing().is_some() {
         return;
     }
     let pipeline = Arc::new(FakePipeline {
@@ -19,15 +19,15 @@ async fn the_page_uploads_follows_and_draws_the_plan() {
         completions: None,
         spin: false,
     });
-    let s = common::start(pipeline, |c| {
+    let s = server::start(pipeline, |c| {
         c.api_keys = vec!["acme:acme-browser-key-0001".into()]
     })
     .await;
     let cloud = s.dir.path().join("room.xyz");
-    std::fs::write(&cloud, common::xyz(500)).unwrap();
+    std::fs::write(&cloud, server::xyz(500)).unwrap();
     let shot = std::env::temp_dir().join("asbuilt-page.png");
     let seen =
-        common::browser_upload(&s.base, &cloud, None, &shot, Some("acme-browser-key-0001")).await;
+        server::browser_upload(&s.base, &cloud, None, &shot, Some("acme-browser-key-0001")).await;
     assert_eq!(seen["status"], "succeeded");
     assert_eq!(seen["walls"], 2, "{seen}");
     assert_eq!(seen["arcs"], 1, "{seen}");

@@ -3,7 +3,7 @@
 //! the same through the upload page in headless chromium. These need the readers, simulator
 //! and stages, so they pass once those are integrated.
 
-mod common;
+use crate::support::server;
 
 use std::path::Path;
 use std::process::Command;
@@ -105,7 +105,7 @@ fn check_contract(doc: &Value) {
 
 #[tokio::test(flavor = "multi_thread")]
 async fn a_simulated_scan_becomes_a_plan_over_http() {
-    let s = common::start(Arc::new(PlanPipeline), |c| c.workers = 1).await;
+    let s = server::start(Arc::new(PlanPipeline), |c| c.workers = 1).await;
     let scan = s.dir.path().join("scan");
     simulate(&scan);
     let form = reqwest::multipart::Form::new()
@@ -154,7 +154,7 @@ async fn a_simulated_scan_becomes_a_plan_over_http() {
         .unwrap();
     assert!(dxf.contains("AC1009") && dxf.contains("STORY_0") && dxf.ends_with("EOF\n"));
     // ezdxf opens it: a story layer and a walls layer for each story of the plan.
-    if let Some(v) = common::ezdxf_summary(dxf.as_bytes()) {
+    if let Some(v) = server::ezdxf_summary(dxf.as_bytes()) {
         assert_eq!(
             (&v["version"], &v["insunits"], &v["errors"]),
             (&"AC1009".into(), &6.into(), &0.into()),
@@ -189,16 +189,16 @@ async fn a_simulated_scan_becomes_a_plan_over_http() {
 
 #[tokio::test(flavor = "multi_thread")]
 async fn the_page_draws_a_simulated_scan() {
-    if common::browser_missing().is_some() {
+    if server::browser_missing().is_some() {
         return;
     }
-    let s = common::start(Arc::new(PlanPipeline), |c| c.workers = 1).await;
+    let s = server::start(Arc::new(PlanPipeline), |c| c.workers = 1).await;
     let scan = s.dir.path().join("scan");
     simulate(&scan);
     let shot = std::env::temp_dir().join("asbuilt-page-simulated.png");
     let poses = scan.join("poses.json");
     let seen =
-        common::browser_upload(&s.base, &scan.join("cloud.ply"), Some(&poses), &shot, None).await;
+        server::browser_upload(&s.base, &scan.join("cloud.ply"), Some(&poses), &shot, None).await;
     assert_eq!(seen["status"], "succeeded");
     assert!(seen["walls"].as_u64().unwrap() >= 4, "{seen}");
     // Poses were given: no warning, a green status.
@@ -211,7 +211,7 @@ async fn the_page_draws_a_simulated_scan() {
 /// instead of) allocating them; a real LAS over a small limit fails the same way.
 #[tokio::test(flavor = "multi_thread")]
 async fn over_limit_clouds_fail_before_they_are_read() {
-    let s = common::start(Arc::new(PlanPipeline), |c| {
+    let s = server::start(Arc::new(PlanPipeline), |c| {
         c.workers = 1;
         c.max_points = 500;
     })
@@ -251,7 +251,7 @@ async fn over_limit_clouds_fail_before_they_are_read() {
 /// units check runs for jobs as for the CLI.
 #[tokio::test]
 async fn failures_carry_the_stage_code_and_the_units_check_runs() {
-    let s = common::start(Arc::new(PlanPipeline), |c| c.workers = 1).await;
+    let s = server::start(Arc::new(PlanPipeline), |c| c.workers = 1).await;
     let grid = |z: f64, out: &mut Vec<[f64; 3]>| {
         for i in 0..=200 {
             for j in 0..=150 {

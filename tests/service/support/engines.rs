@@ -5,8 +5,6 @@
 //! or MinIO) are set by `.ci/backends.sh`. Without them these tests print why and skip, except
 //! under CI (`CI` set), where a missing engine is a failure.
 
-#![allow(dead_code)]
-
 use std::time::Duration;
 
 use sqlx::Connection;

@@ -41,10 +41,6 @@ impl Contract {
         }
     }
 
-    pub fn doc(&self) -> &Value {
-        &self.doc
-    }
-
     /// Validates `value` against the schema at `pointer` (a URI fragment into the document).
     pub fn validate(&mut self, pointer: &str, value: &Value) {
         if let Err(e) = self.check(pointer, value) {
