@@ -5,6 +5,12 @@
 //! Data". The crate is pure and synchronous: no HTTP, no async runtime, no database. Only
 //! [`io`] touches files.
 //!
+//! # Entry points
+//! Both are re-exported here, with an example each:
+//! - [`plan_scan`]: a scan file and its sidecar in, the plan with every stage's time out (the
+//!   CLI and the service's worker call only this). [`Scan`] says what to read and how.
+//! - [`plan()`]: the stages on a [`PointCloud`] already in memory.
+//!
 //! # Layout
 //! - [`run::plan_scan`] is the front door: a scan file and its sidecar in, the plan out.
 //! - [`pipeline::plan`] runs the stages in order:
@@ -41,7 +47,10 @@ pub mod viewpoints;
 
 pub use cancel::{Cancel, Cancelled};
 pub use cloud::PointCloud;
+pub use io::{ReadOptions, SidecarKind};
 pub use params::Params;
 pub use pipeline::{plan, PlanError};
 pub use plan::FloorPlan;
+pub use progress::{NoProgress, Progress, Stage};
 pub use run::{plan_scan, Planned, RunError, Scan};
+pub use streaming::StreamingParams;

@@ -1,5 +1,7 @@
 //! The one place that lists the stages in order: cloud in, floor plan out.
 
+#![warn(missing_docs)]
+
 use std::cell::RefCell;
 use std::time::Instant;
 
@@ -23,26 +25,39 @@ use crate::viewpoints::{self, OpenSpaceStory, ViewpointSource, ViewpointsReport}
 /// Why a plan could not be made. Each variant names the stage.
 #[derive(Debug, thiserror::Error)]
 pub enum PlanError {
+    /// The cloud holds no points.
     #[error("the cloud is empty")]
     EmptyCloud,
+    /// The cloud's arrays disagree (lengths, scan slots); the message says how.
     #[error("the cloud is inconsistent: {0}")]
     BadCloud(String),
+    /// Splitting into stories failed (§3.1).
     #[error("stories: {0}")]
     Stories(#[from] StoriesError),
+    /// Wall sampling failed (§3.1).
     #[error("wall samples: {0}")]
     Samples(#[from] SamplesError),
+    /// Smoothing the samples failed (§3.2).
     #[error("smoothing: {0}")]
     Smoothing(#[from] SmoothingError),
+    /// Labeling rooms failed (§3.3).
     #[error("labeling: {0}")]
     Labeling(#[from] LabelingError),
+    /// Tracing the boundary failed (§3.4).
     #[error("boundary: {0}")]
     Boundary(#[from] BoundaryError),
+    /// Fitting the walls failed (§3.5).
     #[error("fitting: {0}")]
     Fitting(#[from] FittingError),
     /// Every story failed. `code` is their stage's code when they all failed in the same
     /// stage, else `no_plan`; `why` lists each story's failure.
     #[error("no story produced a plan: {why}")]
-    NoPlan { code: &'static str, why: String },
+    NoPlan {
+        /// The stage's error code, or `no_plan`.
+        code: &'static str,
+        /// Each story's failure.
+        why: String,
+    },
     /// The caller's [`Cancel`] stopped the run (whichever stage it was in).
     #[error("{0}")]
     Cancelled(#[from] Cancelled),
@@ -133,6 +148,19 @@ impl Timings {
 }
 
 /// Runs every stage on `cloud` and returns the floor plan (local coordinates + origin).
+///
+/// ```
+/// use asbuilt_plan::progress::NoProgress;
+/// use asbuilt_plan::simulate::{simulate, BuildingKind, ScanOptions};
+/// use asbuilt_plan::{plan, Params};
+///
+/// // A simulated 6 m × 5 m room: one story, one room.
+/// let options = ScanOptions { points: 40_000, seed: 1, ..Default::default() };
+/// let sim = simulate(BuildingKind::SquareRoom, &options).unwrap();
+/// let floor_plan = plan(&sim.cloud, &Params::default(), &mut NoProgress).unwrap();
+/// assert_eq!(floor_plan.stories.len(), 1);
+/// assert_eq!(floor_plan.stories[0].polygons.len(), 1);
+/// ```
 pub fn plan(
     cloud: &PointCloud,
     params: &Params,

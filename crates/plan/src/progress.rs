@@ -1,18 +1,28 @@
 //! How the pipeline reports progress and learns it should stop. Callers (the CLI's progress bar,
 //! the service's worker) implement [`Progress`]; the pipeline knows nothing of them.
 
+#![warn(missing_docs)]
+
 use crate::cancel::Cancel;
 
 /// The stages, in pipeline order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Stage {
+    /// Reading the cloud and its sidecar.
     Read,
+    /// Splitting the cloud into stories (§3.1).
     Stories,
+    /// Wall samples from the d_s grid (§3.1).
     Samples,
+    /// Smoothing the samples (§3.2).
     Smoothing,
+    /// Labeling rooms (§3.3).
     Labeling,
+    /// Cleaning the labels and tracing the boundary (§3.4).
     Cleanup,
+    /// Fitting lines and arcs to the walls (§3.5).
     Fitting,
+    /// Writing the outputs.
     Write,
 }
 
@@ -20,6 +30,7 @@ pub enum Stage {
 /// about a stage comes from here.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StageRow {
+    /// The stage this row describes.
     pub stage: Stage,
     /// The name in progress reports, the job's `stage` and `timings_ms`.
     pub name: &'static str,
@@ -109,6 +120,7 @@ pub fn timing_keys() -> impl Iterator<Item = &'static str> {
 
 /// Receives progress. `fraction` is the whole run's progress in [0, 1].
 pub trait Progress: Send {
+    /// Called as the run enters `stage` and as it goes on; `fraction` never decreases.
     fn report(&mut self, stage: Stage, fraction: f64);
 
     /// The token the run checks inside every long loop; the default never stops. Asked once

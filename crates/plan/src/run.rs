@@ -2,6 +2,8 @@
 //! The CLI (in memory and streamed) and the service's worker call [`plan_scan`] and nothing
 //! else, so the point limit, the sidecar's size cap and scale, and the units check hold for all.
 
+#![warn(missing_docs)]
+
 use std::path::Path;
 use std::time::Instant;
 
@@ -22,6 +24,7 @@ pub struct Scan<'a> {
     pub sidecar: Option<(SidecarKind, &'a Path)>,
     /// How to read the cloud; its `cancel` is replaced by the progress's.
     pub read: ReadOptions,
+    /// Every stage's parameters.
     pub params: &'a Params,
     /// Stream the file within this budget instead of holding it whole (`plan --max-memory`).
     pub stream: Option<StreamingParams>,
@@ -44,10 +47,18 @@ pub enum RunError {
     /// The cloud or its sidecar could not be read (the message names the file).
     #[error(transparent)]
     Read(#[from] ReadError),
+    /// The cloud has more points than [`Scan::max_points`] allows.
     #[error("the cloud has {points} points, more than the limit of {max}")]
-    TooManyPoints { points: u64, max: u64 },
+    TooManyPoints {
+        /// Points in the cloud (from its header when it tells).
+        points: u64,
+        /// The limit.
+        max: u64,
+    },
+    /// The coordinates are not in metres (see [`crate::io::check_units`]).
     #[error(transparent)]
     Units(#[from] UnitsError),
+    /// A stage failed.
     #[error(transparent)]
     Plan(#[from] PlanError),
     /// The streamed run's own failures (tile files, the memory budget).
@@ -90,6 +101,36 @@ impl From<StreamingError> for RunError {
 }
 
 /// Reads the scan, plans it, and times every step, reading included.
+///
+/// ```
+/// use asbuilt_plan::io::ply::{write_ply, Encoding};
+/// use asbuilt_plan::io::ReadOptions;
+/// use asbuilt_plan::progress::NoProgress;
+/// use asbuilt_plan::simulate::{simulate, BuildingKind, ScanOptions};
+/// use asbuilt_plan::{plan_scan, Params, Scan};
+///
+/// // A simulated 6 m × 5 m room, written as a PLY file without its scanner poses.
+/// let options = ScanOptions { points: 40_000, seed: 1, ..Default::default() };
+/// let sim = simulate(BuildingKind::SquareRoom, &options).unwrap();
+/// let path = std::env::temp_dir().join(format!("asbuilt-doc-{}.ply", std::process::id()));
+/// write_ply(&path, &sim.cloud, Encoding::BinaryLittleEndian).unwrap();
+///
+/// let params = Params::default();
+/// let scan = Scan {
+///     cloud: &path,
+///     sidecar: None,
+///     read: ReadOptions::default(),
+///     params: &params,
+///     stream: None,
+///     max_points: Some(1_000_000),
+/// };
+/// let planned = plan_scan(&scan, &mut NoProgress).unwrap();
+/// std::fs::remove_file(&path).unwrap();
+/// assert_eq!(planned.plan.stories.len(), 1);
+/// assert!(!planned.plan.stories[0].polygons.is_empty());
+/// let steps: Vec<&str> = planned.plan.timings_ms.iter().map(|(k, _)| k.as_str()).collect();
+/// assert_eq!((steps[0], *steps.last().unwrap()), ("read", "total"));
+/// ```
 pub fn plan_scan(scan: &Scan<'_>, progress: &mut dyn Progress) -> Result<Planned, RunError> {
     progress.report(Stage::Read, 0.0);
     let start = Instant::now();

@@ -1,9 +1,9 @@
 //! A scanner simulator: synthetic buildings with exact ground truth, scanned by static or mobile
 //! scanners. Used by tests, benchmarks and `asbuilt simulate`.
 //!
-//! - [`buildings`]: the buildings (walls, doors with lintels, columns, tables) and their truth.
-//! - [`scanner`]: analytic ray casting against wall segments and arcs, floors and ceilings.
-//! - [`truth`]: the ground truth per story, exact lines and arcs.
+//! - `buildings.rs`: the buildings (walls, doors with lintels, columns, tables) and their truth.
+//! - `scanner.rs`: analytic ray casting against wall segments and arcs, floors and ceilings.
+//! - `truth.rs`: the ground truth per story, exact lines and arcs.
 //! - [`random`]: random buildings (rooms, corridors, closets, columns, bays, any rotation) for
 //!   property tests, scanned with [`scan`].
 //! - [`simulate`] scans a building: points, scan indices, poses or a trajectory, all in a local
@@ -12,13 +12,13 @@
 //! Every run is deterministic from its seed: each block of rays has its own ChaCha stream, so
 //! the result does not depend on how rayon schedules the blocks.
 
-pub mod buildings;
+pub(crate) mod buildings;
 mod multilevel;
 pub mod random;
-pub mod rects;
-pub mod rooms;
-pub mod scanner;
-pub mod truth;
+pub(crate) mod rects;
+pub(crate) mod rooms;
+pub(crate) mod scanner;
+pub(crate) mod truth;
 
 use rand::Rng;
 use rand_distr::Normal;

@@ -33,10 +33,6 @@ impl Rect {
     pub fn contains(&self, p: P2) -> bool {
         p[0] > self.x0 && p[0] < self.x1 && p[1] > self.y0 && p[1] < self.y1
     }
-
-    pub fn center(&self) -> P2 {
-        [(self.x0 + self.x1) / 2.0, (self.y0 + self.y1) / 2.0]
-    }
 }
 
 /// The open region `∪ open − ∪ solid` as polygons with holes (open rings, exteriors CCW, holes CW,

@@ -65,11 +65,6 @@ pub(super) fn dense_office_story(level: usize) -> StoryModel {
     s.into_model()
 }
 
-/// The stations of a dense office story, for choosing points per station.
-pub fn dense_office_stations() -> usize {
-    dense_office_story(0).stations.len()
-}
-
 /// One story of rooms divided by 10 cm partitions: three rooms on a corridor, two with a
 /// 1.2 m × 1.5 m closet in a corner, a stub wall, and along the north a bathroom, a third
 /// closet and a fourth room. Every room and closet has a station.

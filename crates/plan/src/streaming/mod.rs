@@ -15,6 +15,8 @@
 //!
 //! The plan is the in-memory one ([`crate::pipeline::plan`] on the whole cloud).
 
+#![warn(missing_docs)]
+
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -58,18 +60,29 @@ impl Default for StreamingParams {
 /// Why a streamed plan could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum StreamingError {
+    /// The file could not be read.
     #[error(transparent)]
     Read(#[from] ReadError),
+    /// A tile file could not be written or read back.
     #[error(transparent)]
     Spill(#[from] SpillError),
+    /// The sidecar does not fit the cloud.
     #[error("poses: {0}")]
     Poses(#[from] PosesError),
+    /// The coordinates are not in metres.
     #[error(transparent)]
     Units(#[from] UnitsError),
+    /// A stage failed.
     #[error("{0}")]
     Plan(#[from] PlanError),
+    /// No tiling fits the budget.
     #[error("the memory budget of {budget} bytes is too small: {why}")]
-    Budget { budget: u64, why: String },
+    Budget {
+        /// The budget, bytes.
+        budget: u64,
+        /// What would not fit.
+        why: String,
+    },
 }
 
 /// How the streamed run went.

@@ -7,6 +7,8 @@
 //! through a JSON tree; trajectories (`trajectory.rs`) can be long and are deserialised straight
 //! into typed samples.
 
+#![warn(missing_docs)]
+
 use std::path::Path;
 
 use super::ReadError;
@@ -32,15 +34,23 @@ const MAX_COORDINATE: f64 = 1.0e9;
 /// Why a sidecar could not be used. Messages name the offending index.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum PosesError {
+    /// The text is not JSON of the expected shape.
     #[error("not valid pose JSON: {0}")]
     Json(String),
     /// One entry is malformed; the message names the entry and the field.
     #[error("{0}")]
     Invalid(String),
+    /// The sidecar does not fit the cloud (scans without poses, times outside the path).
     #[error("{0}")]
     Mismatch(String),
+    /// The sidecar could not be written.
     #[error("cannot write {path}: {why}")]
-    Write { path: String, why: String },
+    Write {
+        /// The file.
+        path: String,
+        /// The system's reason.
+        why: String,
+    },
 }
 
 fn sidecar_error(path: &Path, e: PosesError) -> ReadError {
