@@ -100,7 +100,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
     let stream = match &args.max_memory {
         Some(budget) => Some(StreamingParams {
             max_memory: parse_size(budget)?,
-            temp_dir: None,
+            ..Default::default()
         }),
         None => None,
     };

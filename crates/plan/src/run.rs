@@ -50,7 +50,8 @@ pub enum RunError {
     /// The cloud has more points than [`Scan::max_points`] allows.
     #[error("the cloud has {points} points, more than the limit of {max}")]
     TooManyPoints {
-        /// Points in the cloud (from its header when it tells).
+        /// Points in the cloud (from its header when it tells; streamed, those read when the
+        /// count passed the limit).
         points: u64,
         /// The limit.
         max: u64,
@@ -95,6 +96,9 @@ impl From<StreamingError> for RunError {
             StreamingError::Read(e) => RunError::Read(e),
             StreamingError::Units(e) => RunError::Units(e),
             StreamingError::Plan(e) => RunError::Plan(e),
+            StreamingError::TooManyPoints { points, max } => {
+                RunError::TooManyPoints { points, max }
+            }
             e => RunError::Streaming(e),
         }
     }
@@ -166,8 +170,12 @@ pub fn plan_scan(scan: &Scan<'_>, progress: &mut dyn Progress) -> Result<Planned
                 .map(|(kind, path)| io::sidecar::read_scaled(kind, path, read.scale))
                 .transpose()?;
             let sidecar_ms = ms(start);
+            let stream = StreamingParams {
+                max_points: scan.max_points,
+                ..stream.clone()
+            };
             let (mut plan, report) =
-                streaming::plan_file(scan.cloud, &read, sidecar, scan.params, stream, progress)
+                streaming::plan_file(scan.cloud, &read, sidecar, scan.params, &stream, progress)
                     .map_err(|e| match (e, scan.sidecar) {
                         // A sidecar that does not fit the cloud is named, as in memory.
                         (StreamingError::Poses(e), Some((_, path))) => {
@@ -176,9 +184,6 @@ pub fn plan_scan(scan: &Scan<'_>, progress: &mut dyn Progress) -> Result<Planned
                         (e, _) => RunError::from(e),
                     })?;
             add_time(&mut plan, Stage::Read.name(), sidecar_ms);
-            if let Some(max) = scan.max_points {
-                check_points(report.points, max)?;
-            }
             Planned {
                 plan,
                 streamed: Some(report),

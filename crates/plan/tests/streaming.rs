@@ -80,6 +80,7 @@ fn streaming_in_small_tiles_gives_the_in_memory_plan() {
     let stream = StreamingParams {
         max_memory: 3 << 20,
         temp_dir: Some(dir.path().to_path_buf()),
+        ..Default::default()
     };
     let (streamed, report) = plan_file(
         &path,
@@ -159,6 +160,7 @@ fn bad_budgets_and_unchunked_formats_are_clear_errors() {
     let tiny = StreamingParams {
         max_memory: 64 << 10,
         temp_dir: Some(dir.path().to_path_buf()),
+        ..Default::default()
     };
     let err = plan_file(
         &path,
@@ -192,4 +194,30 @@ fn bad_budgets_and_unchunked_formats_are_clear_errors() {
         .err()
         .unwrap();
     assert!(err.to_string().contains("missing.ply"), "{err}");
+}
+
+#[test]
+fn the_first_pass_stops_at_the_point_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    office(dir.path(), 30_000);
+    let limited = StreamingParams {
+        temp_dir: Some(dir.path().to_path_buf()),
+        max_points: Some(1_000),
+        ..Default::default()
+    };
+    let err = plan_file(
+        &dir.path().join("cloud.ply"),
+        &ReadOptions::default(),
+        None,
+        &Params::default(),
+        &limited,
+        &mut NoProgress,
+    )
+    .unwrap_err();
+    // Stopped after the chunk that passed the limit.
+    let StreamingError::TooManyPoints { points, max } = err else {
+        panic!("{err}")
+    };
+    assert_eq!(max, 1_000);
+    assert!(points > 1_000 && points <= 30_000, "{points}");
 }

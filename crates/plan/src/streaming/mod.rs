@@ -46,6 +46,8 @@ pub struct StreamingParams {
     pub max_memory: u64,
     /// Where the tile files go; the system's temporary folder when `None`.
     pub temp_dir: Option<PathBuf>,
+    /// The most points the file may hold; the first pass stops as soon as it reads more.
+    pub max_points: Option<u64>,
 }
 
 impl Default for StreamingParams {
@@ -53,6 +55,7 @@ impl Default for StreamingParams {
         StreamingParams {
             max_memory: 1 << 30,
             temp_dir: None,
+            max_points: None,
         }
     }
 }
@@ -82,6 +85,14 @@ pub enum StreamingError {
         budget: u64,
         /// What would not fit.
         why: String,
+    },
+    /// The file holds more points than [`StreamingParams::max_points`].
+    #[error("the cloud has more than {max} points, the limit")]
+    TooManyPoints {
+        /// Points read when the pass stopped.
+        points: u64,
+        /// The limit.
+        max: u64,
     },
 }
 
@@ -127,7 +138,7 @@ pub fn plan_file(
 
     // Pass 1: bounds and the coarse count.
     let clock = Instant::now();
-    let (survey, mut skeleton, probe) = survey_pass(path, &read, &stop)?;
+    let (survey, mut skeleton, probe) = survey_pass(path, &read, stream.max_points, &stop)?;
     timings.add(Stage::Read.name(), ms(clock));
     if survey.n == 0 {
         return Err(PlanError::EmptyCloud.into());
@@ -206,6 +217,7 @@ pub fn plan_file(
 fn survey_pass(
     path: &std::path::Path,
     read: &ReadOptions,
+    max_points: Option<u64>,
     stop: &dyn Fn() -> Result<(), StreamingError>,
 ) -> Result<(Survey, PointCloud, SpacingProbe), StreamingError> {
     let mut chunks = open_chunks(path, read)?;
@@ -215,6 +227,13 @@ fn survey_pass(
     while chunks.next_chunk(&mut chunk)? {
         stop()?;
         survey.add(&chunk);
+        // A header may understate its points: the count read is what holds.
+        if let Some(max) = max_points.filter(|&max| survey.n > max) {
+            return Err(StreamingError::TooManyPoints {
+                points: survey.n,
+                max,
+            });
+        }
         probe.add(&chunk.xyz);
     }
     let skeleton = chunks.skeleton()?;
