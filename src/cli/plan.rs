@@ -369,6 +369,7 @@ mod tests {
                     support: 5,
                 }],
                 samples: vec![],
+                spaces: Default::default(),
             }],
             notes: vec![],
         }

@@ -103,6 +103,7 @@ pub fn square_plan(points: u64) -> FloorPlan {
                 },
             ],
             samples: vec![],
+            spaces: Default::default(),
         }],
         notes: vec![],
     }

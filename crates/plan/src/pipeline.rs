@@ -446,6 +446,7 @@ fn plan_story(
         polygons: valid.polygons,
         walls: fitted.walls,
         samples: samples.samples.iter().map(|s| s.pos).collect(),
+        spaces: Default::default(),
     };
     Ok(StoryOutcome {
         plan,

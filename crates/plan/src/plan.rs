@@ -41,7 +41,7 @@ impl Wall {
 }
 
 /// One story's plan.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct StoryPlan {
     pub level: usize,
     /// Local-frame heights (add `FloorPlan::origin[2]` for world heights).
@@ -51,6 +51,101 @@ pub struct StoryPlan {
     pub walls: Vec<Wall>,
     /// Wall sample positions (local), used by `wall_samples` output and the SVG.
     pub samples: Vec<P2>,
+    /// The story's rooms, doors, windows and walls with thickness (empty when not found).
+    pub spaces: Spaces,
+}
+
+/// A story divided into rooms: what facility management works with. Every position is in the
+/// local frame, like the rest of the story.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Spaces {
+    pub rooms: Vec<Room>,
+    /// Doors and lintel-less openings between rooms.
+    pub doors: Vec<Door>,
+    pub windows: Vec<Window>,
+    /// Walls as centre lines with a thickness.
+    pub walls: Vec<WallCentre>,
+}
+
+/// A region of free floor closed by walls, whose only openings to other rooms are doors or
+/// openings. Corridors and halls are rooms too.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Room {
+    /// Stable within a plan: `L{level}-R{n}`, numbered by position (south-west first).
+    pub id: String,
+    /// The room's floor, OGC-valid.
+    pub polygon: Polygon,
+    /// Net floor area, m².
+    pub area: f64,
+    /// Length of the polygon's rings, m.
+    pub perimeter: f64,
+    /// Local heights of the room's floor and ceiling.
+    pub floor_z: f64,
+    pub ceiling_z: f64,
+    /// Indices of the scanners (viewpoints) standing inside the room.
+    pub scanners: Vec<usize>,
+    /// Ids of the rooms joined to this one by a door or opening, sorted.
+    pub neighbours: Vec<String>,
+}
+
+/// What fills a gap in a wall between two rooms.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DoorKind {
+    /// A gap with wall above it (a lintel).
+    Door,
+    /// A gap without a lintel: an archway or an open-plan join.
+    Opening,
+}
+
+/// A door or opening: a segment across the wall it pierces, on the wall's centre line.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Door {
+    /// `L{level}-D{n}`.
+    pub id: String,
+    pub kind: DoorKind,
+    /// The segment's ends, on the jambs.
+    pub a: P2,
+    pub b: P2,
+    /// Clear width, m.
+    pub width: f64,
+    /// Local height of the lintel's underside, where seen.
+    pub head_z: Option<f64>,
+    /// Thickness of the wall it pierces, m.
+    pub depth: f64,
+    /// The two rooms it joins; `None` for the outside.
+    pub rooms: [Option<String>; 2],
+}
+
+/// A window: a gap in a wall with wall below and above it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Window {
+    /// `L{level}-W{n}`.
+    pub id: String,
+    pub a: P2,
+    pub b: P2,
+    pub width: f64,
+    /// Local heights of the sill and the head.
+    pub sill_z: f64,
+    pub head_z: f64,
+    /// The room it lights.
+    pub room: Option<String>,
+}
+
+/// A wall as a straight centre line with a thickness.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WallCentre {
+    /// `L{level}-C{n}` (centre line).
+    pub id: String,
+    pub a: P2,
+    pub b: P2,
+    /// m. For an exterior wall (`exterior`), only the inner face was seen and this is the
+    /// assumed thickness (`rooms.exterior_thickness`).
+    pub thickness: f64,
+    /// Only one face was seen: the centre line is placed half the assumed thickness behind it.
+    pub exterior: bool,
+    /// The rooms on either side (left, right of a → b); `None` where outside or unknown.
+    pub rooms: [Option<String>; 2],
 }
 
 impl StoryPlan {

@@ -238,6 +238,7 @@ fn moved(s: &StoryPlan, shift: [f64; 3]) -> StoryPlan {
             })
             .collect(),
         samples: Vec::new(),
+        spaces: Default::default(),
     }
 }
 
@@ -356,6 +357,7 @@ mod tests {
                 polygons: vec![p],
                 walls: Vec::new(),
                 samples: Vec::new(),
+                spaces: Default::default(),
             }],
             notes: Vec::new(),
         }

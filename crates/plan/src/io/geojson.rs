@@ -250,6 +250,7 @@ pub(crate) mod tests {
             polygons,
             walls,
             samples: vec![[0.5, 0.0], [1.0, 0.0], [4.0, 2.0]],
+            spaces: Default::default(),
         }
     }
 

@@ -175,6 +175,7 @@ fn story_plan(s: &TruthStory) -> StoryPlan {
             })
             .collect(),
         samples: Vec::new(),
+        spaces: Default::default(),
     }
 }
 
