@@ -372,6 +372,11 @@ impl Config {
         }
     }
 
+    /// Retention of finished jobs, milliseconds.
+    pub fn retention_ms(&self) -> i64 {
+        i64::try_from(self.retention_hours.saturating_mul(3_600_000)).unwrap_or(i64::MAX)
+    }
+
     /// True when no API keys are configured (neither listed nor in a keys file).
     pub fn dev_mode(&self) -> bool {
         self.api_keys.is_empty() && self.api_keys_file.is_none()

@@ -15,15 +15,18 @@ pub enum Code {
     Unauthorized,
     NotFound,
     RouteNotFound,
+    Expired,
     MethodNotAllowed,
     UploadTimeout,
     ResultNotReady,
+    JobFinished,
     PayloadTooLarge,
     UriTooLong,
     UnsupportedFormat,
     MissingCloud,
     InvalidParameter,
     InvalidSidecar,
+    IdempotencyKeyReused,
     RateLimited,
     QueueFull,
     HeaderTooLarge,
@@ -32,21 +35,24 @@ pub enum Code {
 }
 
 /// Every code, in the order the OpenAPI document lists them.
-pub const CODES: [Code; 19] = [
+pub const CODES: [Code; 22] = [
     Code::InvalidRequest,
     Code::InvalidMultipart,
     Code::Unauthorized,
     Code::NotFound,
     Code::RouteNotFound,
+    Code::Expired,
     Code::MethodNotAllowed,
     Code::UploadTimeout,
     Code::ResultNotReady,
+    Code::JobFinished,
     Code::PayloadTooLarge,
     Code::UriTooLong,
     Code::UnsupportedFormat,
     Code::MissingCloud,
     Code::InvalidParameter,
     Code::InvalidSidecar,
+    Code::IdempotencyKeyReused,
     Code::RateLimited,
     Code::QueueFull,
     Code::HeaderTooLarge,
@@ -89,6 +95,11 @@ impl Code {
                 "No such job for this API key (other tenants' jobs are not found either).",
             ),
             Code::RouteNotFound => ("route_not_found", 404, "No such endpoint."),
+            Code::Expired => (
+                "expired",
+                410,
+                "The job finished longer ago than the server's retention, and its data was deleted.",
+            ),
             Code::MethodNotAllowed => (
                 "method_not_allowed",
                 405,
@@ -103,6 +114,11 @@ impl Code {
                 "result_not_ready",
                 409,
                 "The job has not succeeded (yet), so it has no result.",
+            ),
+            Code::JobFinished => (
+                "job_finished",
+                409,
+                "The job already succeeded or failed, so it cannot be cancelled.",
             ),
             Code::PayloadTooLarge => (
                 "payload_too_large",
@@ -129,6 +145,11 @@ impl Code {
                 "invalid_sidecar",
                 422,
                 "The poses or trajectory part is not a JSON object.",
+            ),
+            Code::IdempotencyKeyReused => (
+                "idempotency_key_reused",
+                422,
+                "The `Idempotency-Key` was used for another job with a different request.",
             ),
             Code::RateLimited => (
                 "rate_limited",

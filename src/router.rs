@@ -22,6 +22,8 @@ pub const ROUTES: &[(&str, &str)] = &[
     ("GET", "/v1/jobs/{id}"),
     ("DELETE", "/v1/jobs/{id}"),
     ("GET", "/v1/jobs/{id}/events"),
+    ("POST", "/v1/jobs/{id}/cancel"),
+    ("POST", "/v1/jobs/{id}/replan"),
 ];
 
 /// Every route: [`ROUTES`], then a download per result of `asbuilt_plan::io::outputs::OUTPUTS`
@@ -76,6 +78,8 @@ pub fn build(state: AppState) -> Router {
             get(jobs::show::show).delete(jobs::delete::delete),
         )
         .route("/v1/jobs/{id}/events", get(jobs::events::events))
+        .route("/v1/jobs/{id}/cancel", post(jobs::cancel::cancel))
+        .route("/v1/jobs/{id}/replan", post(jobs::replan::replan))
         // Every result file (`plan.geojson`, ...); `events` is matched first as the fixed path.
         .route("/v1/jobs/{id}/{file}", get(jobs::results::file))
         .fallback(controllers::route_not_found)

@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 use asbuilt_plan::io::outputs::OUTPUTS;
 use serde::Serialize;
 
+use crate::config::Config;
 use crate::queue::{Job, JobError, JobStatus, UploadInfo};
 
 /// A job as the API shows it.
@@ -18,6 +19,8 @@ pub struct JobView {
     pub started_at: Option<String>,
     pub finished_at: Option<String>,
     pub updated_at: String,
+    /// When retention removes the job and its data; null until it finishes.
+    pub expires_at: Option<String>,
     pub attempts: u32,
     pub upload: UploadInfo,
     pub input: Option<serde_json::Value>,
@@ -25,6 +28,12 @@ pub struct JobView {
     pub parameters: serde_json::Value,
     pub error: Option<JobError>,
     pub links: Links,
+    /// The client's reference, as given at creation.
+    pub external_ref: Option<String>,
+    /// The client's tags, as given at creation.
+    pub tags: Vec<String>,
+    /// For a re-plan: the job whose stored upload it reads; null for a job with its own.
+    pub source_job: Option<String>,
 }
 
 /// Where to find the job's parts.
@@ -45,8 +54,10 @@ pub fn timestamp(ms: i64) -> String {
         .to_rfc3339_opts(chrono::SecondsFormat::Millis, true)
 }
 
-impl From<&Job> for JobView {
-    fn from(job: &Job) -> JobView {
+impl JobView {
+    /// The job as shown by a server with `config` (its retention sets `expires_at`).
+    pub fn new(job: &Job, config: &Config) -> JobView {
+        let retention_ms = config.retention_ms();
         let base = format!("/v1/jobs/{}", job.id);
         let done = job.status == JobStatus::Succeeded;
         let results = match done {
@@ -65,6 +76,9 @@ impl From<&Job> for JobView {
             started_at: job.started_at.map(timestamp),
             finished_at: job.finished_at.map(timestamp),
             updated_at: timestamp(job.updated_at),
+            expires_at: job
+                .finished_at
+                .map(|at| timestamp(at.saturating_add(retention_ms))),
             attempts: job.attempts,
             upload: job.upload.clone(),
             input: job.input.clone(),
@@ -76,6 +90,9 @@ impl From<&Job> for JobView {
                 results,
                 this: base,
             },
+            external_ref: job.meta.external_ref.clone(),
+            tags: job.meta.tags.clone(),
+            source_job: job.is_replan().then(|| job.input_job.to_string()),
         }
     }
 }

@@ -133,6 +133,23 @@ pub struct UploadInfo {
     pub sidecar: Option<String>,
 }
 
+/// What the client attached to a job to find it again: its own reference and tags.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct JobMeta {
+    /// The client's reference (a building id, a level's name); at most 200 characters.
+    pub external_ref: Option<String>,
+    /// Labels to filter the list by; at most 20 of 64 characters each, no duplicates.
+    pub tags: Vec<String>,
+}
+
+/// A create request's `Idempotency-Key`, with the fingerprint of what it asked for.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Idempotency {
+    pub key: String,
+    /// Hex SHA-256 over the request's parameters, cloud, sidecar and metadata.
+    pub request_hash: String,
+}
+
 /// A job as stored. Times are Unix milliseconds.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Job {
@@ -155,26 +172,62 @@ pub struct Job {
     pub started_at: Option<i64>,
     pub finished_at: Option<i64>,
     pub updated_at: i64,
+    pub meta: JobMeta,
+    pub idempotency: Option<Idempotency>,
+    /// The job whose stored upload (`jobs/<id>/input/cloud`) this job reads: itself, or the
+    /// original upload of a re-plan.
+    pub input_job: JobId,
+    /// Where completion and failure are POSTed, if anywhere.
+    pub callback_url: Option<String>,
+}
+
+impl Job {
+    /// True when this job re-plans another job's upload.
+    pub fn is_replan(&self) -> bool {
+        self.input_job != self.id
+    }
 }
 
 /// A job to create.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct NewJob {
     pub id: JobId,
     pub tenant: String,
     pub params: serde_json::Value,
     pub upload: UploadInfo,
     pub max_attempts: u32,
+    pub meta: JobMeta,
+    pub idempotency: Option<Idempotency>,
+    /// For a re-plan: the job re-planned (it must still exist when this one is recorded) and
+    /// the job whose upload is read. `None`: a new upload, stored under this job's own id.
+    pub replan_of: Option<(JobId, JobId)>,
+    pub callback_url: Option<String>,
+}
+
+/// What [`JobStore::insert`] did.
+#[derive(Debug, Clone)]
+pub enum Inserted {
+    Created(Box<Job>),
+    /// The tenant already has `max_queued` queued jobs.
+    QueueFull,
+    /// The job to re-plan was deleted meanwhile.
+    SourceGone,
+    /// The tenant already has a job with this `Idempotency-Key`.
+    KeyTaken,
 }
 
 /// A page of a tenant's jobs, newest first.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct ListQuery {
     pub tenant: String,
     pub status: Option<JobStatus>,
     /// Only jobs older than this one (the previous page's last id).
     pub before: Option<JobId>,
     pub limit: u32,
+    /// Only jobs with this external reference.
+    pub external_ref: Option<String>,
+    /// Only jobs carrying every one of these tags.
+    pub tags: Vec<String>,
 }
 
 /// What a worker reports with each heartbeat.
@@ -245,7 +298,22 @@ pub trait JobStore: Send + Sync + 'static {
     async fn create(&self, job: NewJob) -> Result<Job, StoreError>;
     /// Records a new queued job unless its tenant already has `max_queued` queued jobs (0: no
     /// cap), in one atomic step; `None` when over the cap.
-    async fn create_within(&self, job: NewJob, max_queued: u32) -> Result<Option<Job>, StoreError>;
+    async fn create_within(&self, job: NewJob, max_queued: u32) -> Result<Option<Job>, StoreError> {
+        match self.insert(job, max_queued).await? {
+            Inserted::Created(job) => Ok(Some(*job)),
+            Inserted::QueueFull => Ok(None),
+            other => Err(StoreError(format!("job not created: {other:?}"))),
+        }
+    }
+    /// Records a new queued job in one atomic step, unless its tenant is at `max_queued`
+    /// queued jobs (0: no cap), the job it re-plans is gone, or its idempotency key is taken.
+    /// A re-plan's source row is held while the job is recorded, so a concurrent delete of
+    /// the source either comes first (and this fails) or sees the new job using the upload.
+    async fn insert(&self, job: NewJob, max_queued: u32) -> Result<Inserted, StoreError>;
+    /// The tenant's job created with this `Idempotency-Key`, if any.
+    async fn by_idempotency_key(&self, tenant: &str, key: &str) -> Result<Option<Job>, StoreError>;
+    /// True while a job row reads the upload stored under `input_job` (its own or a re-plan).
+    async fn upload_in_use(&self, input_job: JobId) -> Result<bool, StoreError>;
     /// How many jobs `tenant` has queued.
     async fn queued_count(&self, tenant: &str) -> Result<u64, StoreError>;
     /// A job by id; `tenant` restricts it to one tenant's jobs.
@@ -293,6 +361,13 @@ pub trait JobStore: Send + Sync + 'static {
     async fn cancel(&self, tenant: &str, id: JobId) -> Result<Option<Job>, StoreError>;
     /// Removes a job's row; true when it existed.
     async fn delete(&self, id: JobId) -> Result<bool, StoreError>;
+    /// Removes a job's row for retention, leaving a tombstone (id, tenant, time) so the job
+    /// answers "expired" rather than "not found"; true when it existed.
+    async fn expire(&self, id: JobId) -> Result<bool, StoreError>;
+    /// When `tenant`'s job `id` was removed by retention, if it was.
+    async fn expired_at(&self, tenant: &str, id: JobId) -> Result<Option<i64>, StoreError>;
+    /// Forgets tombstones older than `before_ms` (those jobs then answer "not found").
+    async fn forget_expired(&self, before_ms: i64) -> Result<u64, StoreError>;
     /// Jobs that finished before `before_ms` (for retention), at most `limit`.
     async fn finished_before(&self, before_ms: i64, limit: u32) -> Result<Vec<JobId>, StoreError>;
     /// How many jobs are in each status (every status, zeros included).

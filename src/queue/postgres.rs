@@ -20,9 +20,10 @@ use sqlx::postgres::{PgConnectOptions, PgListener, PgPool, PgPoolOptions, PgRow}
 use sqlx::Row;
 use tokio::sync::Notify;
 
+use super::sqlite::{is_unique_violation, json_text};
 use super::{
-    now_ms, Beat, Expired, Heartbeat, Job, JobError, JobId, JobOutcome, JobStatus, JobStore,
-    ListQuery, NewJob, StoreError, WORKER_LOST,
+    now_ms, Beat, Expired, Heartbeat, Idempotency, Inserted, Job, JobError, JobId, JobMeta,
+    JobOutcome, JobStatus, JobStore, ListQuery, NewJob, StoreError, WORKER_LOST,
 };
 
 /// The PostgreSQL migrations, in order: (version, description, SQL).
@@ -36,6 +37,11 @@ const MIGRATIONS: &[(i64, &str, &str)] = &[
         2,
         "tenant fairness",
         include_str!("../../migrations/postgres/0002_tenant_fairness.sql"),
+    ),
+    (
+        3,
+        "job api",
+        include_str!("../../migrations/postgres/0003_job_api.sql"),
     ),
 ];
 
@@ -66,7 +72,16 @@ impl<'s> MigrationSource<'s> for Embedded {
 
 const COLUMNS: &str = "id::text AS id, tenant, status, stage, progress, params::text AS params, \
      upload::text AS upload, input::text AS input, timings::text AS timings, error_code, \
-     error_message, attempts, max_attempts, created_at, started_at, finished_at, updated_at";
+     error_message, attempts, max_attempts, created_at, started_at, finished_at, updated_at, \
+     external_ref, tags::text AS tags, idempotency_key, request_hash, \
+     input_job::text AS input_job, callback_url";
+
+/// The columns a new job sets, and their values as bound by [`PgJobStore::bind_new`].
+const NEW_COLUMNS: &str = "id, tenant, status, progress, params, upload, attempts, \
+     max_attempts, created_at, updated_at, external_ref, tags, idempotency_key, request_hash, \
+     input_job, callback_url";
+const NEW_VALUES: &str = "$1::uuid, $2, 'queued', 0, $3::jsonb, $4::jsonb, 0, $5, $6, $6, $7, \
+     $8::jsonb, $9, $10, $11::uuid, $12";
 
 /// Job state in a PostgreSQL database (one schema of it).
 #[derive(Clone)]
@@ -168,7 +183,51 @@ impl PgJobStore {
             started_at: row.try_get("started_at")?,
             finished_at: row.try_get("finished_at")?,
             updated_at: row.try_get("updated_at")?,
+            meta: JobMeta {
+                external_ref: row.try_get("external_ref")?,
+                tags: serde_json::from_value(json("tags")?.unwrap_or_default())
+                    .map_err(|e| StoreError(format!("column tags: {e}")))?,
+            },
+            idempotency: match (
+                row.try_get::<Option<String>, _>("idempotency_key")?,
+                row.try_get::<Option<String>, _>("request_hash")?,
+            ) {
+                (Some(key), hash) => Some(Idempotency {
+                    key,
+                    request_hash: hash.unwrap_or_default(),
+                }),
+                _ => None,
+            },
+            input_job: match row.try_get::<Option<String>, _>("input_job")? {
+                Some(s) => {
+                    JobId::from_str(&s).map_err(|e| StoreError(format!("input_job: {e}")))?
+                }
+                None => JobId::from_str(&id).map_err(|e| StoreError(format!("id {id}: {e}")))?,
+            },
+            callback_url: row.try_get("callback_url")?,
         })
+    }
+
+    /// Binds a new job's values ($1 to $12 of [`NEW_VALUES`]).
+    fn bind_new<'q>(
+        query: sqlx::query::Query<'q, sqlx::Postgres, sqlx::postgres::PgArguments>,
+        job: &NewJob,
+        now: i64,
+    ) -> Result<sqlx::query::Query<'q, sqlx::Postgres, sqlx::postgres::PgArguments>, StoreError>
+    {
+        Ok(query
+            .bind(job.id.to_string())
+            .bind(job.tenant.clone())
+            .bind(job.params.to_string())
+            .bind(json_text(&job.upload)?)
+            .bind(job.max_attempts as i32)
+            .bind(now)
+            .bind(job.meta.external_ref.clone())
+            .bind(json_text(&job.meta.tags)?)
+            .bind(job.idempotency.as_ref().map(|i| i.key.clone()))
+            .bind(job.idempotency.as_ref().map(|i| i.request_hash.clone()))
+            .bind(job.replan_of.map(|(_, input)| input.to_string()))
+            .bind(job.callback_url.clone()))
     }
 
     fn ids(rows: &[PgRow]) -> Result<Vec<JobId>, StoreError> {
@@ -278,62 +337,80 @@ impl JobStore for PgJobStore {
     }
 
     async fn create(&self, job: NewJob) -> Result<Job, StoreError> {
-        let now = now_ms();
-        let sql = format!(
-            "INSERT INTO jobs (id, tenant, status, progress, params, upload, attempts, \
-             max_attempts, created_at, updated_at) \
-             VALUES ($1::uuid, $2, 'queued', 0, $3::jsonb, $4::jsonb, 0, $5, $6, $6) \
-             RETURNING {COLUMNS}"
-        );
-        let row = sqlx::query(&sql)
-            .bind(job.id.to_string())
-            .bind(&job.tenant)
-            .bind(job.params.to_string())
-            .bind(serde_json::to_string(&job.upload).map_err(|e| StoreError(e.to_string()))?)
-            .bind(job.max_attempts as i32)
-            .bind(now)
+        let sql =
+            format!("INSERT INTO jobs ({NEW_COLUMNS}) VALUES ({NEW_VALUES}) RETURNING {COLUMNS}");
+        let row = Self::bind_new(sqlx::query(&sql), &job, now_ms())?
             .fetch_one(&self.pool)
             .await?;
         Self::row_to_job(&row)
     }
 
-    async fn create_within(&self, job: NewJob, max_queued: u32) -> Result<Option<Job>, StoreError> {
-        if max_queued == 0 {
-            return self.create(job).await.map(Some);
-        }
-        // Concurrent uploads of one tenant (in any process) take turns on the tenant's lock,
-        // so the count cannot change between the check and the insert.
+    async fn insert(&self, job: NewJob, max_queued: u32) -> Result<Inserted, StoreError> {
         let mut tx = self.pool.begin().await?;
-        sqlx::query("SELECT pg_advisory_xact_lock(hashtextextended($1, 0))")
-            .bind(format!("asbuilt queued {}", job.tenant))
-            .execute(&mut *tx)
-            .await?;
-        let queued: i64 =
-            sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE tenant = $1 AND status = 'queued'")
-                .bind(&job.tenant)
-                .fetch_one(&mut *tx)
-                .await?;
-        if queued >= max_queued as i64 {
-            return Ok(None);
+        if let Some((source, _)) = job.replan_of {
+            // Held until commit: a delete of the source waits for this job to be recorded, and
+            // then sees it reading the upload.
+            let found: Option<i32> =
+                sqlx::query_scalar("SELECT 1 FROM jobs WHERE id = $1::uuid FOR SHARE")
+                    .bind(source.to_string())
+                    .fetch_optional(&mut *tx)
+                    .await?;
+            if found.is_none() {
+                return Ok(Inserted::SourceGone);
+            }
         }
-        let now = now_ms();
-        let sql = format!(
-            "INSERT INTO jobs (id, tenant, status, progress, params, upload, attempts, \
-             max_attempts, created_at, updated_at) \
-             VALUES ($1::uuid, $2, 'queued', 0, $3::jsonb, $4::jsonb, 0, $5, $6, $6) \
-             RETURNING {COLUMNS}"
-        );
-        let row = sqlx::query(&sql)
-            .bind(job.id.to_string())
+        if max_queued > 0 {
+            // Concurrent uploads of one tenant (in any process) take turns on the tenant's
+            // lock, so the count cannot change between the check and the insert.
+            sqlx::query("SELECT pg_advisory_xact_lock(hashtextextended($1, 0))")
+                .bind(format!("asbuilt queued {}", job.tenant))
+                .execute(&mut *tx)
+                .await?;
+            let queued: i64 = sqlx::query_scalar(
+                "SELECT COUNT(*) FROM jobs WHERE tenant = $1 AND status = 'queued'",
+            )
             .bind(&job.tenant)
-            .bind(job.params.to_string())
-            .bind(serde_json::to_string(&job.upload).map_err(|e| StoreError(e.to_string()))?)
-            .bind(job.max_attempts as i32)
-            .bind(now)
             .fetch_one(&mut *tx)
             .await?;
+            if queued >= max_queued as i64 {
+                return Ok(Inserted::QueueFull);
+            }
+        }
+        let sql =
+            format!("INSERT INTO jobs ({NEW_COLUMNS}) VALUES ({NEW_VALUES}) RETURNING {COLUMNS}");
+        let row = match Self::bind_new(sqlx::query(&sql), &job, now_ms())?
+            .fetch_one(&mut *tx)
+            .await
+        {
+            Ok(row) => row,
+            Err(e) if is_unique_violation(&e) && job.idempotency.is_some() => {
+                return Ok(Inserted::KeyTaken)
+            }
+            Err(e) => return Err(e.into()),
+        };
         tx.commit().await?;
-        Self::row_to_job(&row).map(Some)
+        Self::row_to_job(&row).map(|j| Inserted::Created(Box::new(j)))
+    }
+
+    async fn by_idempotency_key(&self, tenant: &str, key: &str) -> Result<Option<Job>, StoreError> {
+        let sql = format!("SELECT {COLUMNS} FROM jobs WHERE tenant = $1 AND idempotency_key = $2");
+        let row = sqlx::query(&sql)
+            .bind(tenant)
+            .bind(key)
+            .fetch_optional(&self.pool)
+            .await?;
+        row.as_ref().map(Self::row_to_job).transpose()
+    }
+
+    async fn upload_in_use(&self, input_job: JobId) -> Result<bool, StoreError> {
+        let used: bool = sqlx::query_scalar(
+            "SELECT EXISTS (SELECT 1 FROM jobs WHERE id = $1::uuid) \
+             OR EXISTS (SELECT 1 FROM jobs WHERE input_job = $1::uuid)",
+        )
+        .bind(input_job.to_string())
+        .fetch_one(&self.pool)
+        .await?;
+        Ok(used)
     }
 
     async fn queued_count(&self, tenant: &str) -> Result<u64, StoreError> {
@@ -360,13 +437,16 @@ impl JobStore for PgJobStore {
     async fn list(&self, q: &ListQuery) -> Result<Vec<Job>, StoreError> {
         let sql = format!(
             "SELECT {COLUMNS} FROM jobs WHERE tenant = $1 AND ($2::text IS NULL OR status = $2) \
-             AND ($3::uuid IS NULL OR id < $3::uuid) ORDER BY id DESC LIMIT $4"
+             AND ($3::uuid IS NULL OR id < $3::uuid) AND ($5::text IS NULL OR external_ref = $5) \
+             AND tags @> $6::jsonb ORDER BY id DESC LIMIT $4"
         );
         let rows = sqlx::query(&sql)
             .bind(&q.tenant)
             .bind(q.status.map(|s| s.as_str()))
             .bind(q.before.map(|b| b.to_string()))
             .bind(q.limit as i64)
+            .bind(&q.external_ref)
+            .bind(json_text(&q.tags)?)
             .fetch_all(&self.pool)
             .await?;
         rows.iter().map(Self::row_to_job).collect()
@@ -557,6 +637,44 @@ impl JobStore for PgJobStore {
         Ok(done.rows_affected() == 1)
     }
 
+    async fn expire(&self, id: JobId) -> Result<bool, StoreError> {
+        let mut tx = self.pool.begin().await?;
+        sqlx::query(
+            "INSERT INTO job_tombstones (id, tenant, expired_at) \
+             SELECT id, tenant, $1 FROM jobs WHERE id = $2::uuid \
+             ON CONFLICT (id) DO UPDATE SET expired_at = EXCLUDED.expired_at",
+        )
+        .bind(now_ms())
+        .bind(id.to_string())
+        .execute(&mut *tx)
+        .await?;
+        let done = sqlx::query("DELETE FROM jobs WHERE id = $1::uuid")
+            .bind(id.to_string())
+            .execute(&mut *tx)
+            .await?;
+        tx.commit().await?;
+        Ok(done.rows_affected() == 1)
+    }
+
+    async fn expired_at(&self, tenant: &str, id: JobId) -> Result<Option<i64>, StoreError> {
+        let at = sqlx::query_scalar(
+            "SELECT expired_at FROM job_tombstones WHERE id = $1::uuid AND tenant = $2",
+        )
+        .bind(id.to_string())
+        .bind(tenant)
+        .fetch_optional(&self.pool)
+        .await?;
+        Ok(at)
+    }
+
+    async fn forget_expired(&self, before_ms: i64) -> Result<u64, StoreError> {
+        let done = sqlx::query("DELETE FROM job_tombstones WHERE expired_at < $1")
+            .bind(before_ms)
+            .execute(&self.pool)
+            .await?;
+        Ok(done.rows_affected())
+    }
+
     async fn finished_before(&self, before_ms: i64, limit: u32) -> Result<Vec<JobId>, StoreError> {
         let rows = sqlx::query(
             "SELECT id::text AS id FROM jobs WHERE finished_at IS NOT NULL AND finished_at < $1 \
@@ -608,14 +726,16 @@ mod tests {
     #[test]
     fn schema_check_names_what_to_do() {
         let known = migrations();
-        assert!(schema_verdict(&applied(&[1, 2]), &known).is_ok());
+        assert!(schema_verdict(&applied(&[1, 2, 3]), &known).is_ok());
         assert!(
             schema_verdict(&applied(&[1]), &known).is_err(),
             "a migration missing"
         );
         let none = schema_verdict(&[], &known).unwrap_err().0;
         assert!(none.contains("run `asbuilt migrate`"), "{none}");
-        let newer = schema_verdict(&applied(&[1, 2, 99]), &known).unwrap_err().0;
+        let newer = schema_verdict(&applied(&[1, 2, 3, 99]), &known)
+            .unwrap_err()
+            .0;
         assert!(newer.contains("newer than this binary"), "{newer}");
         let changed = schema_verdict(&[(1, vec![0u8; 48])], &known).unwrap_err().0;
         assert!(

@@ -16,8 +16,8 @@ use sqlx::sqlite::{
 use sqlx::Row;
 
 use super::{
-    now_ms, Beat, Expired, Heartbeat, Job, JobError, JobId, JobOutcome, JobStatus, JobStore,
-    ListQuery, NewJob, StoreError, WORKER_LOST,
+    now_ms, Beat, Expired, Heartbeat, Idempotency, Inserted, Job, JobError, JobId, JobMeta,
+    JobOutcome, JobStatus, JobStore, ListQuery, NewJob, StoreError, WORKER_LOST,
 };
 
 /// The SQLite migrations, in order: (version, description, SQL).
@@ -31,6 +31,11 @@ const MIGRATIONS: &[(i64, &str, &str)] = &[
         2,
         "tenant fairness",
         include_str!("../../migrations/sqlite/0002_tenant_fairness.sql"),
+    ),
+    (
+        3,
+        "job api",
+        include_str!("../../migrations/sqlite/0003_job_api.sql"),
     ),
 ];
 
@@ -64,7 +69,14 @@ pub struct SqliteJobStore {
 }
 
 const COLUMNS: &str = "id, tenant, status, stage, progress, params, upload, input, timings, \
-     error_code, error_message, attempts, max_attempts, created_at, started_at, finished_at, updated_at";
+     error_code, error_message, attempts, max_attempts, created_at, started_at, finished_at, \
+     updated_at, external_ref, tags, idempotency_key, request_hash, input_job, callback_url";
+
+/// The columns a new job sets, in the order [`SqliteJobStore::bind_new`] binds them.
+const NEW_COLUMNS: &str = "id, tenant, status, progress, params, upload, attempts, max_attempts, \
+     created_at, updated_at, external_ref, tags, idempotency_key, request_hash, input_job, \
+     callback_url";
+const NEW_VALUES: &str = "?, ?, 'queued', 0, ?, ?, 0, ?, ?, ?, ?, ?, ?, ?, ?, ?";
 
 impl SqliteJobStore {
     /// Opens (creating if needed) the database file at `path`.
@@ -127,8 +139,64 @@ impl SqliteJobStore {
             started_at: row.try_get("started_at")?,
             finished_at: row.try_get("finished_at")?,
             updated_at: row.try_get("updated_at")?,
+            meta: JobMeta {
+                external_ref: row.try_get("external_ref")?,
+                tags: serde_json::from_value(json("tags")?.unwrap_or_default())
+                    .map_err(|e| StoreError(format!("column tags: {e}")))?,
+            },
+            idempotency: match (
+                row.try_get::<Option<String>, _>("idempotency_key")?,
+                row.try_get::<Option<String>, _>("request_hash")?,
+            ) {
+                (Some(key), hash) => Some(Idempotency {
+                    key,
+                    request_hash: hash.unwrap_or_default(),
+                }),
+                _ => None,
+            },
+            input_job: match row.try_get::<Option<String>, _>("input_job")? {
+                Some(s) => {
+                    JobId::from_str(&s).map_err(|e| StoreError(format!("input_job: {e}")))?
+                }
+                None => JobId::from_str(&id).map_err(|e| StoreError(format!("id {id}: {e}")))?,
+            },
+            callback_url: row.try_get("callback_url")?,
         })
     }
+
+    /// Binds a new job's values to a statement built with [`NEW_VALUES`].
+    fn bind_new<'q>(
+        query: sqlx::query::Query<'q, sqlx::Sqlite, sqlx::sqlite::SqliteArguments<'q>>,
+        job: &NewJob,
+        now: i64,
+    ) -> Result<sqlx::query::Query<'q, sqlx::Sqlite, sqlx::sqlite::SqliteArguments<'q>>, StoreError>
+    {
+        Ok(query
+            .bind(job.id.to_string())
+            .bind(job.tenant.clone())
+            .bind(job.params.to_string())
+            .bind(json_text(&job.upload)?)
+            .bind(job.max_attempts as i64)
+            .bind(now)
+            .bind(now)
+            .bind(job.meta.external_ref.clone())
+            .bind(json_text(&job.meta.tags)?)
+            .bind(job.idempotency.as_ref().map(|i| i.key.clone()))
+            .bind(job.idempotency.as_ref().map(|i| i.request_hash.clone()))
+            .bind(job.replan_of.map(|(_, input)| input.to_string()))
+            .bind(job.callback_url.clone()))
+    }
+}
+
+/// A JSON column's text.
+pub(crate) fn json_text<T: serde::Serialize>(value: &T) -> Result<String, StoreError> {
+    serde_json::to_string(value).map_err(|e| StoreError(e.to_string()))
+}
+
+/// True when `e` is a unique-index violation (an idempotency key already taken).
+pub(crate) fn is_unique_violation(e: &sqlx::Error) -> bool {
+    e.as_database_error()
+        .is_some_and(|d| d.is_unique_violation())
 }
 
 #[async_trait]
@@ -149,47 +217,75 @@ impl JobStore for SqliteJobStore {
     }
 
     async fn create(&self, job: NewJob) -> Result<Job, StoreError> {
-        let now = now_ms();
-        let sql = format!(
-            "INSERT INTO jobs (id, tenant, status, progress, params, upload, attempts, max_attempts, \
-             created_at, updated_at) VALUES (?, ?, 'queued', 0, ?, ?, 0, ?, ?, ?) RETURNING {COLUMNS}"
-        );
-        let row = sqlx::query(&sql)
-            .bind(job.id.to_string())
-            .bind(&job.tenant)
-            .bind(job.params.to_string())
-            .bind(serde_json::to_string(&job.upload).map_err(|e| StoreError(e.to_string()))?)
-            .bind(job.max_attempts as i64)
-            .bind(now)
-            .bind(now)
+        let sql =
+            format!("INSERT INTO jobs ({NEW_COLUMNS}) VALUES ({NEW_VALUES}) RETURNING {COLUMNS}");
+        let row = Self::bind_new(sqlx::query(&sql), &job, now_ms())?
             .fetch_one(&self.pool)
             .await?;
         Self::row_to_job(&row)
     }
 
-    async fn create_within(&self, job: NewJob, max_queued: u32) -> Result<Option<Job>, StoreError> {
-        let now = now_ms();
-        // One statement: SQLite serialises writers, so the count cannot change under it.
+    async fn insert(&self, job: NewJob, max_queued: u32) -> Result<Inserted, StoreError> {
+        // One statement: SQLite serialises writers, so neither the count nor the source's
+        // existence can change under it.
         let sql = format!(
-            "INSERT INTO jobs (id, tenant, status, progress, params, upload, attempts, max_attempts, \
-             created_at, updated_at) SELECT ?, ?, 'queued', 0, ?, ?, 0, ?, ?, ? \
-             WHERE ? = 0 OR (SELECT COUNT(*) FROM jobs WHERE tenant = ? AND status = 'queued') < ? \
+            "INSERT INTO jobs ({NEW_COLUMNS}) SELECT {NEW_VALUES} \
+             WHERE (? = 0 OR (SELECT COUNT(*) FROM jobs WHERE tenant = ? AND status = 'queued') < ?) \
+             AND (? IS NULL OR EXISTS (SELECT 1 FROM jobs WHERE id = ?)) \
              RETURNING {COLUMNS}"
         );
+        let source = job.replan_of.map(|(s, _)| s.to_string());
+        let query = Self::bind_new(sqlx::query(&sql), &job, now_ms())?
+            .bind(max_queued as i64)
+            .bind(job.tenant.clone())
+            .bind(max_queued as i64)
+            .bind(source.clone())
+            .bind(source.clone());
+        let row = match query.fetch_optional(&self.pool).await {
+            Ok(row) => row,
+            Err(e) if is_unique_violation(&e) && job.idempotency.is_some() => {
+                return Ok(Inserted::KeyTaken)
+            }
+            Err(e) => return Err(e.into()),
+        };
+        if let Some(row) = row {
+            return Self::row_to_job(&row).map(|j| Inserted::Created(Box::new(j)));
+        }
+        // Which condition failed (only the answer's wording depends on it).
+        if let Some(source) = source {
+            let exists: bool =
+                sqlx::query_scalar("SELECT EXISTS (SELECT 1 FROM jobs WHERE id = ?)")
+                    .bind(source)
+                    .fetch_one(&self.pool)
+                    .await?;
+            if !exists {
+                return Ok(Inserted::SourceGone);
+            }
+        }
+        Ok(Inserted::QueueFull)
+    }
+
+    async fn by_idempotency_key(&self, tenant: &str, key: &str) -> Result<Option<Job>, StoreError> {
+        let sql = format!("SELECT {COLUMNS} FROM jobs WHERE tenant = ? AND idempotency_key = ?");
         let row = sqlx::query(&sql)
-            .bind(job.id.to_string())
-            .bind(&job.tenant)
-            .bind(job.params.to_string())
-            .bind(serde_json::to_string(&job.upload).map_err(|e| StoreError(e.to_string()))?)
-            .bind(job.max_attempts as i64)
-            .bind(now)
-            .bind(now)
-            .bind(max_queued as i64)
-            .bind(&job.tenant)
-            .bind(max_queued as i64)
+            .bind(tenant)
+            .bind(key)
             .fetch_optional(&self.pool)
             .await?;
         row.as_ref().map(Self::row_to_job).transpose()
+    }
+
+    async fn upload_in_use(&self, input_job: JobId) -> Result<bool, StoreError> {
+        let id = input_job.to_string();
+        let used: bool = sqlx::query_scalar(
+            "SELECT EXISTS (SELECT 1 FROM jobs WHERE id = ?) \
+             OR EXISTS (SELECT 1 FROM jobs WHERE input_job = ?)",
+        )
+        .bind(&id)
+        .bind(&id)
+        .fetch_one(&self.pool)
+        .await?;
+        Ok(used)
     }
 
     async fn queued_count(&self, tenant: &str) -> Result<u64, StoreError> {
@@ -213,18 +309,26 @@ impl JobStore for SqliteJobStore {
     }
 
     async fn list(&self, q: &ListQuery) -> Result<Vec<Job>, StoreError> {
+        // Every wanted tag is among the job's tags.
         let sql = format!(
             "SELECT {COLUMNS} FROM jobs WHERE tenant = ? AND (? IS NULL OR status = ?) \
-             AND (? IS NULL OR id < ?) ORDER BY id DESC LIMIT ?"
+             AND (? IS NULL OR id < ?) AND (? IS NULL OR external_ref = ?) \
+             AND NOT EXISTS (SELECT 1 FROM json_each(?) w \
+                             WHERE w.value NOT IN (SELECT value FROM json_each(jobs.tags))) \
+             ORDER BY id DESC LIMIT ?"
         );
         let status = q.status.map(|s| s.as_str());
         let before = q.before.map(|b| b.to_string());
+        let tags = serde_json::to_string(&q.tags).map_err(|e| StoreError(e.to_string()))?;
         let rows = sqlx::query(&sql)
             .bind(&q.tenant)
             .bind(status)
             .bind(status)
             .bind(&before)
             .bind(&before)
+            .bind(&q.external_ref)
+            .bind(&q.external_ref)
+            .bind(tags)
             .bind(q.limit as i64)
             .fetch_all(&self.pool)
             .await?;
@@ -435,6 +539,42 @@ impl JobStore for SqliteJobStore {
         Ok(done.rows_affected() == 1)
     }
 
+    async fn expire(&self, id: JobId) -> Result<bool, StoreError> {
+        let mut tx = self.pool.begin().await?;
+        sqlx::query(
+            "INSERT OR REPLACE INTO job_tombstones (id, tenant, expired_at) \
+             SELECT id, tenant, ? FROM jobs WHERE id = ?",
+        )
+        .bind(now_ms())
+        .bind(id.to_string())
+        .execute(&mut *tx)
+        .await?;
+        let done = sqlx::query("DELETE FROM jobs WHERE id = ?")
+            .bind(id.to_string())
+            .execute(&mut *tx)
+            .await?;
+        tx.commit().await?;
+        Ok(done.rows_affected() == 1)
+    }
+
+    async fn expired_at(&self, tenant: &str, id: JobId) -> Result<Option<i64>, StoreError> {
+        let at =
+            sqlx::query_scalar("SELECT expired_at FROM job_tombstones WHERE id = ? AND tenant = ?")
+                .bind(id.to_string())
+                .bind(tenant)
+                .fetch_optional(&self.pool)
+                .await?;
+        Ok(at)
+    }
+
+    async fn forget_expired(&self, before_ms: i64) -> Result<u64, StoreError> {
+        let done = sqlx::query("DELETE FROM job_tombstones WHERE expired_at < ?")
+            .bind(before_ms)
+            .execute(&self.pool)
+            .await?;
+        Ok(done.rows_affected())
+    }
+
     async fn finished_before(&self, before_ms: i64, limit: u32) -> Result<Vec<JobId>, StoreError> {
         let rows = sqlx::query(
             "SELECT id FROM jobs WHERE finished_at IS NOT NULL AND finished_at < ? \
@@ -495,6 +635,7 @@ mod tests {
                 ..Default::default()
             },
             max_attempts,
+            ..Default::default()
         }
     }
 
@@ -585,9 +726,8 @@ mod tests {
         s.create(new_job("b", 3)).await.unwrap();
         let mut q = ListQuery {
             tenant: "a".into(),
-            status: None,
-            before: None,
             limit: 2,
+            ..Default::default()
         };
         let mut seen = vec![];
         loop {

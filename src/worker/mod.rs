@@ -4,6 +4,7 @@
 pub mod fake;
 pub mod pipeline;
 pub mod progress;
+pub mod retire;
 pub mod sweeper;
 
 use std::panic::AssertUnwindSafe;
@@ -134,7 +135,7 @@ impl Workers {
         // The stage it stopped in: the last one reported, or reading when none was.
         let stage = shared.latest().0.unwrap_or(Stage::Read);
         if let Err(e) = self
-            .finish(owner, id, shared.stopped(), stage, result)
+            .finish(owner, id, job.input_job, shared.stopped(), stage, result)
             .await
         {
             tracing::error!(job = %id, error = %e, "recording the job's end");
@@ -170,7 +171,8 @@ impl Workers {
                 }
             }
         };
-        let cloud = fetch(keys::cloud(job.id), "cloud").await?;
+        // A re-plan reads the upload of the job it came from.
+        let cloud = fetch(keys::cloud(job.input_job), "cloud").await?;
         let sidecar = match job
             .upload
             .sidecar
@@ -196,9 +198,10 @@ impl Workers {
     /// A job deleted while its results were being written loses its whole folder here: the
     /// delete removed the folder before this worker wrote into it again (the soak benchmark
     /// found such folders left behind).
-    async fn discard_results(&self, id: JobId) -> anyhow::Result<()> {
+    async fn discard_results(&self, id: JobId, input_job: JobId) -> anyhow::Result<()> {
         let prefix = match self.state.store.get(None, id).await? {
-            None => keys::job_prefix(id),
+            // Gone: everything it stored, and the upload it read if nobody else reads it.
+            None => return retire::remove_blobs(&self.state, id, input_job).await,
             Some(job)
                 if matches!(
                     job.status,
@@ -217,6 +220,7 @@ impl Workers {
         &self,
         owner: &str,
         id: JobId,
+        input_job: JobId,
         stopped: Option<Stop>,
         stage: Stage,
         result: Result<JobResults, PipelineFailure>,
@@ -226,7 +230,7 @@ impl Workers {
         match (stopped, result) {
             (Some(Stop::Lost), _) => {
                 tracing::info!(job = %id, "job cancelled or taken over; its work is discarded");
-                self.discard_results(id).await?;
+                self.discard_results(id, input_job).await?;
             }
             (Some(Stop::Shutdown), _) => {
                 if store.release(id, owner).await? {
@@ -254,7 +258,7 @@ impl Workers {
                     tracing::info!(job = %id, "job succeeded");
                 } else {
                     // Cancelled, deleted or taken over while finishing.
-                    self.discard_results(id).await?;
+                    self.discard_results(id, input_job).await?;
                 }
             }
             // Only the time limit is left to have stopped the run; a run that failed on its own

@@ -6,7 +6,10 @@ use tokio_util::sync::CancellationToken;
 
 use crate::app::AppState;
 use crate::queue::{now_ms, WORKER_LOST};
-use crate::storage::keys;
+use crate::worker::retire;
+
+/// How long a job removed by retention still answers `410 expired` (then `404`): 30 days.
+pub const TOMBSTONE_MS: i64 = 30 * 24 * 3_600_000;
 
 /// How often the sweeper runs: often enough to notice a lost lease well within its length.
 pub fn interval(lease_secs: u64) -> Duration {
@@ -40,16 +43,22 @@ pub async fn sweep(state: &AppState) -> anyhow::Result<()> {
         state.metrics.failure(WORKER_LOST);
         state.changed(*id);
     }
-    let retention_ms = (state.config.retention_hours * 3_600_000) as i64;
+    let now = now_ms();
     let old = state
         .store
-        .finished_before(now_ms() - retention_ms, 100)
+        .finished_before(now - state.config.retention_ms(), 100)
         .await?;
     for id in old {
-        // Blobs first: a row without blobs is harmless, blobs without a row would leak.
-        state.blobs.delete_prefix(&keys::job_prefix(id)).await?;
-        state.store.delete(id).await?;
-        tracing::info!(job = %id, "retention: job data deleted");
+        let Some(job) = state.store.get(None, id).await? else {
+            continue;
+        };
+        // The row first: whether an upload is still read is answered by the rows left.
+        if state.store.expire(id).await? {
+            retire::remove_blobs(state, id, job.input_job).await?;
+            state.changed(id);
+            tracing::info!(job = %id, "retention: job data deleted");
+        }
     }
+    state.store.forget_expired(now - TOMBSTONE_MS).await?;
     Ok(())
 }

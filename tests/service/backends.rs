@@ -143,6 +143,7 @@ fn new_job(tenant: &str, max_attempts: u32) -> NewJob {
             sidecar: None,
         },
         max_attempts,
+        ..Default::default()
     }
 }
 
@@ -343,9 +344,8 @@ async fn lists_newest_first_with_pages_and_counts(b: &Backend) {
     s.create(new_job("b", 3)).await.unwrap();
     let mut q = ListQuery {
         tenant: "a".into(),
-        status: None,
-        before: None,
         limit: 2,
+        ..Default::default()
     };
     let mut seen = vec![];
     loop {

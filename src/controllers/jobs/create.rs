@@ -13,10 +13,9 @@ use axum::body::Body;
 use axum::extract::multipart::{Field, MultipartError};
 use axum::extract::rejection::QueryRejection;
 use axum::extract::{FromRequest, Multipart, Query, Request, State};
-use axum::http::header::{CONTENT_LENGTH, CONTENT_TYPE, EXPECT, LOCATION};
+use axum::http::header::{CONTENT_LENGTH, CONTENT_TYPE, EXPECT};
 use axum::http::StatusCode;
-use axum::response::{IntoResponse, Response};
-use axum::Json;
+use axum::response::Response;
 use bytes::Bytes;
 use futures_util::{StreamExt, TryStreamExt};
 
@@ -27,21 +26,23 @@ use std::time::Duration;
 use super::drain;
 use super::pace::Paced;
 use super::sniff::sniff;
+use super::submit::{self, clean_filename, Fingerprint, Options};
 use crate::app::AppState;
 use crate::auth::Tenant;
 use crate::errors::{ApiError, Code};
-use crate::queue::{JobId, NewJob, UploadInfo};
+use crate::queue::{Idempotency, JobId, NewJob, UploadInfo};
 use crate::storage::{keys, BlobError, ByteStream, Stored};
-use crate::views::JobView;
 use crate::worker::pipeline::SidecarKind;
 
 /// What a request body delivered.
 #[derive(Default)]
-struct Received {
-    cloud: Option<(Stored, &'static str)>,
-    filename: Option<String>,
-    sidecar: Option<SidecarKind>,
-    params: Option<Params>,
+pub struct Received {
+    pub cloud: Option<(Stored, &'static str)>,
+    pub filename: Option<String>,
+    pub sidecar: Option<SidecarKind>,
+    /// The sidecar's SHA-256, as stored.
+    pub sidecar_sha256: Option<String>,
+    pub params: Option<Params>,
 }
 
 pub async fn create(
@@ -106,30 +107,17 @@ async fn accept(
         ));
     }
     let Query(pairs) = query.map_err(|e| ApiError::new(Code::InvalidRequest, e.body_text()))?;
-    // Query parameters are checked before a byte is stored.
-    let mut filename = None;
-    let mut overrides = vec![];
-    for (key, value) in pairs {
-        if key == "filename" {
-            filename = Some(clean_filename(&value));
-        } else {
-            // Known, well-formed and within its range, before a byte is stored.
-            Params::check_override(&format!("{key}={value}"))
-                .map_err(|e| params_error(&e, Some(key.as_str())))?;
-            overrides.push(format!("{key}={value}"));
-        }
-    }
+    // The query (parameters, metadata) and the key are checked before a byte is stored.
+    let options = Options::parse(pairs)?;
+    let key = submit::idempotency_key(request.headers())?;
+    let prior = submit::prior(state, &tenant, key.as_deref()).await?;
     // A tenant at its cap of queued jobs is told before it uploads (and again, atomically,
-    // when the job is created).
+    // when the job is created); a retry of a job already made is not a new job.
     let cap = state.config.max_queued;
-    if cap > 0 && state.store.queued_count(&tenant).await? >= cap as u64 {
+    if prior.is_none() && cap > 0 && state.store.queued_count(&tenant).await? >= cap as u64 {
         return Err(queue_full(cap));
     }
-    let multipart = request
-        .headers()
-        .get(CONTENT_TYPE)
-        .and_then(|v| v.to_str().ok())
-        .is_some_and(|t| t.to_ascii_lowercase().starts_with("multipart/form-data"));
+    let multipart = is_multipart(&request);
     let declared = request
         .headers()
         .get(CONTENT_LENGTH)
@@ -147,7 +135,7 @@ async fn accept(
 
     let id = JobId::new();
     let received = if multipart {
-        receive_multipart(state, id, request).await
+        receive_multipart(state, id, request, true).await
     } else {
         receive_raw(state, id, request.into_body())
             .await
@@ -156,7 +144,7 @@ async fn accept(
                 ..Default::default()
             })
     };
-    let received = match received.and_then(|r| finish_params(r, &overrides)) {
+    let received = match received.and_then(|r| finish_params(r, &options.overrides)) {
         Ok(r) => r,
         Err(e) => {
             if let Err(d) = state.blobs.delete_prefix(&keys::job_prefix(id)).await {
@@ -173,52 +161,59 @@ async fn accept(
             "the request has no `cloud` part",
         ));
     };
-    let job = state
-        .store
-        .create_within(
-            NewJob {
-                id,
-                tenant,
-                params: params.to_json(),
-                upload: UploadInfo {
-                    filename: received.filename.or(filename),
-                    bytes: stored.bytes,
-                    sha256: stored.sha256,
-                    format: format.to_string(),
-                    sidecar: received.sidecar.map(|s| s.name().to_string()),
-                },
-                max_attempts: state.config.max_attempts,
-            },
-            cap,
-        )
-        .await;
-    let job = match job {
-        Ok(Some(job)) => job,
-        Ok(None) => {
-            let _ = state.blobs.delete_prefix(&keys::job_prefix(id)).await;
-            return Err(queue_full(cap));
+    let sidecar = received.sidecar.map(|s| s.name());
+    let idempotency = key.map(|key| Idempotency {
+        key,
+        request_hash: Fingerprint {
+            params: &params,
+            cloud: stored.sha256.clone(),
+            sidecar: sidecar.zip(received.sidecar_sha256.clone()),
+            meta: &options.meta,
+            callback_url: None,
         }
-        Err(e) => {
-            let _ = state.blobs.delete_prefix(&keys::job_prefix(id)).await;
-            return Err(e.into());
-        }
+        .hash(),
+    });
+    let job = NewJob {
+        id,
+        tenant,
+        params: params.to_json(),
+        upload: UploadInfo {
+            filename: received.filename.or(options.filename),
+            bytes: stored.bytes,
+            sha256: stored.sha256,
+            format: format.to_string(),
+            sidecar: sidecar.map(str::to_string),
+        },
+        max_attempts: state.config.max_attempts,
+        meta: options.meta,
+        idempotency,
+        replan_of: None,
+        callback_url: None,
     };
-    state.metrics.upload(job.upload.bytes);
-    state.queued.notify_one();
-    state.changed(id);
-    tracing::info!(job = %id, bytes = job.upload.bytes, format, "job queued");
-    let location = format!("/v1/jobs/{id}");
-    Ok((
-        StatusCode::ACCEPTED,
-        [(LOCATION, location)],
-        Json(JobView::from(&job)),
-    )
-        .into_response())
+    submit::record(state, job, prior).await
+}
+
+/// True for a `multipart/form-data` body.
+pub fn is_multipart(request: &Request) -> bool {
+    request
+        .headers()
+        .get(CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|t| t.to_ascii_lowercase().starts_with("multipart/form-data"))
 }
 
 /// The part's parameters (if any), then the query's overrides.
-fn finish_params(r: Received, overrides: &[String]) -> Result<(Received, Params), ApiError> {
-    let mut params = r.params.clone().unwrap_or_default();
+pub fn finish_params(r: Received, overrides: &[String]) -> Result<(Received, Params), ApiError> {
+    finish_params_from(r, overrides, Params::default())
+}
+
+/// The part's parameters, else `base`; then the query's overrides; then the range checks.
+pub fn finish_params_from(
+    r: Received,
+    overrides: &[String],
+    base: Params,
+) -> Result<(Received, Params), ApiError> {
+    let mut params = r.params.clone().unwrap_or(base);
     for o in overrides {
         let key = o.split('=').next().unwrap_or_default();
         params.set(o).map_err(|e| params_error(&e, Some(key)))?;
@@ -232,7 +227,7 @@ fn finish_params(r: Received, overrides: &[String]) -> Result<(Received, Params)
 /// fixed pause that polling clients can live with.
 const QUEUE_FULL_RETRY_SECS: u64 = 10;
 
-fn queue_full(cap: u32) -> ApiError {
+pub fn queue_full(cap: u32) -> ApiError {
     ApiError::new(
         Code::QueueFull,
         format!("this API key already has {cap} queued jobs, the most this server allows; wait for some to start"),
@@ -240,7 +235,7 @@ fn queue_full(cap: u32) -> ApiError {
     .retry_after(QUEUE_FULL_RETRY_SECS)
 }
 
-fn too_large(limit: u64) -> ApiError {
+pub fn too_large(limit: u64) -> ApiError {
     ApiError::new(
         Code::PayloadTooLarge,
         format!("the upload is larger than this server's limit of {limit} bytes"),
@@ -259,7 +254,7 @@ fn blob_error(e: BlobError) -> ApiError {
 }
 
 /// `invalid_parameter`, naming the parameter (from the error when it knows it better).
-fn params_error(e: &ParamsError, key: Option<&str>) -> ApiError {
+pub fn params_error(e: &ParamsError, key: Option<&str>) -> ApiError {
     let name = match e {
         ParamsError::Unknown(n) | ParamsError::Invalid { name: n, .. } => Some(n.clone()),
         ParamsError::Syntax(s) => Some(s.clone()),
@@ -271,12 +266,6 @@ fn params_error(e: &ParamsError, key: Option<&str>) -> ApiError {
             .unwrap_or_else(|| "params".into()),
         e.to_string(),
     )
-}
-
-/// Keeps a display name: the last path segment, printable, at most 200 characters.
-fn clean_filename(raw: &str) -> String {
-    let last = raw.rsplit(['/', '\\']).next().unwrap_or_default();
-    last.chars().filter(|c| !c.is_control()).take(200).collect()
 }
 
 async fn receive_raw(
@@ -327,10 +316,13 @@ async fn read_small(mut field: Field<'_>, name: &str, limit: u64) -> Result<Byte
     Ok(buf.into())
 }
 
-async fn receive_multipart(
+/// Reads a multipart body: the cloud (only when `with_cloud`; a re-plan has its upload), a
+/// pose or trajectory sidecar, and parameters.
+pub async fn receive_multipart(
     state: &AppState,
     id: JobId,
     request: Request,
+    with_cloud: bool,
 ) -> Result<Received, ApiError> {
     let mut form = Multipart::from_request(request, state)
         .await
@@ -340,6 +332,12 @@ async fn receive_multipart(
     while let Some(field) = form.next_field().await.map_err(multipart_error)? {
         let name = field.name().unwrap_or_default().to_string();
         match name.as_str() {
+            "cloud" if !with_cloud => {
+                return Err(ApiError::new(
+                    Code::InvalidMultipart,
+                    "a re-plan reads the job's stored upload: send no `cloud` part",
+                ))
+            }
             "cloud" => {
                 if got.cloud.is_some() {
                     return Err(ApiError::new(
@@ -371,12 +369,13 @@ async fn receive_multipart(
                         format!("the `{name}` part must be a JSON object"),
                     ));
                 }
-                state
+                let stored = state
                     .blobs
                     .put(&keys::sidecar(id), bytes)
                     .await
                     .map_err(blob_error)?;
                 got.sidecar = name.parse::<SidecarKind>().ok();
+                got.sidecar_sha256 = Some(stored.sha256);
             }
             "params" => {
                 let bytes = read_small(field, &name, small).await?;

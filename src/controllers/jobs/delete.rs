@@ -6,7 +6,7 @@ use axum::http::StatusCode;
 use crate::app::AppState;
 use crate::auth::Tenant;
 use crate::errors::ApiError;
-use crate::storage::keys;
+use crate::worker::retire;
 
 pub async fn delete(
     State(state): State<AppState>,
@@ -15,13 +15,14 @@ pub async fn delete(
 ) -> Result<StatusCode, ApiError> {
     let id = super::parse_id(&id)?;
     // Cancelling takes the lease away; the worker notices at its next heartbeat and stops.
-    state
-        .store
-        .cancel(&tenant, id)
-        .await?
-        .ok_or_else(ApiError::not_found)?;
+    let Some(job) = state.store.cancel(&tenant, id).await? else {
+        return Err(super::missing(&state, &tenant, id).await);
+    };
     state.store.delete(id).await?;
-    state.blobs.delete_prefix(&keys::job_prefix(id)).await?;
+    // A re-plan may still read this job's upload; it stays until the last reader goes.
+    retire::remove_blobs(&state, id, job.input_job)
+        .await
+        .map_err(ApiError::internal)?;
     state.changed(id);
     tracing::info!(job = %id, "job deleted");
     Ok(StatusCode::NO_CONTENT)

@@ -81,7 +81,7 @@ impl Watch {
             self.done = job.status.is_terminal();
             let event = Event::default()
                 .event("job")
-                .json_data(JobView::from(&job))
+                .json_data(JobView::new(&job, &self.state.config))
                 .unwrap_or_else(|_| Event::default().event("job"));
             return Some((Ok(event), self));
         }

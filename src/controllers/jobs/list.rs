@@ -1,4 +1,5 @@
-//! `GET /v1/jobs?status=&cursor=&limit=`: the caller's jobs, newest first.
+//! `GET /v1/jobs?status=&cursor=&limit=&external_ref=&tag=`: the caller's jobs, newest first;
+//! `tag` may repeat, and a job must carry every tag asked for.
 
 use axum::extract::rejection::QueryRejection;
 use axum::extract::{Query, State};
@@ -10,6 +11,8 @@ use crate::auth::Tenant;
 use crate::errors::{ApiError, Code};
 use crate::queue::{JobId, ListQuery};
 use crate::views::JobView;
+
+use super::submit;
 
 /// Page size when none is asked for, and the largest allowed.
 const DEFAULT_LIMIT: u32 = 20;
@@ -30,9 +33,8 @@ pub async fn list(
     let Query(pairs) = query.map_err(|e| ApiError::new(Code::InvalidRequest, e.body_text()))?;
     let mut q = ListQuery {
         tenant,
-        status: None,
-        before: None,
         limit: DEFAULT_LIMIT,
+        ..Default::default()
     };
     for (key, value) in pairs {
         match key.as_str() {
@@ -61,10 +63,12 @@ pub async fn list(
                         )
                     })?
             }
+            "external_ref" => q.external_ref = Some(submit::check_external_ref(&value)?),
+            "tag" => submit::add_tag(&mut q.tags, &value)?,
             other => {
                 return Err(ApiError::param(
                     other,
-                    "unknown query parameter; use status, cursor or limit",
+                    "unknown query parameter; use status, cursor, limit, external_ref or tag",
                 ))
             }
         }
@@ -81,7 +85,10 @@ pub async fn list(
         None
     };
     Ok(Json(Page {
-        jobs: jobs.iter().map(JobView::from).collect(),
+        jobs: jobs
+            .iter()
+            .map(|j| JobView::new(j, &state.config))
+            .collect(),
         next_cursor,
     }))
 }

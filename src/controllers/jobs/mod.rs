@@ -1,14 +1,17 @@
 //! `/v1/jobs`: upload, show, list, events, results, delete.
 
+pub mod cancel;
 pub mod create;
 pub mod delete;
 mod drain;
 pub mod events;
 pub mod list;
 mod pace;
+pub mod replan;
 pub mod results;
 pub mod show;
 mod sniff;
+pub mod submit;
 
 use crate::app::AppState;
 use crate::errors::{ApiError, Code};
@@ -20,12 +23,28 @@ pub fn parse_id(raw: &str) -> Result<JobId, ApiError> {
         .map_err(|e: crate::queue::InvalidJobId| ApiError::new(Code::NotFound, e.to_string()))
 }
 
-/// The tenant's job, or `not_found` (also for other tenants' jobs).
+/// The tenant's job, or `not_found` (also for other tenants' jobs), or `expired`.
 pub async fn load(state: &AppState, tenant: &str, raw: &str) -> Result<Job, ApiError> {
     let id = parse_id(raw)?;
-    state
-        .store
-        .get(Some(tenant), id)
-        .await?
-        .ok_or_else(ApiError::not_found)
+    match state.store.get(Some(tenant), id).await? {
+        Some(job) => Ok(job),
+        None => Err(missing(state, tenant, id).await),
+    }
+}
+
+/// The answer for a job the tenant does not have: `expired` (410) when retention removed it,
+/// else `not_found`.
+pub async fn missing(state: &AppState, tenant: &str, id: JobId) -> ApiError {
+    match state.store.expired_at(tenant, id).await {
+        Ok(Some(at)) => ApiError::new(
+            Code::Expired,
+            format!(
+                "the job expired at {} and its data was deleted (retention: {} h)",
+                crate::views::timestamp(at),
+                state.config.retention_hours
+            ),
+        ),
+        Ok(None) => ApiError::not_found(),
+        Err(e) => e.into(),
+    }
 }

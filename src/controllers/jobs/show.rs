@@ -14,5 +14,5 @@ pub async fn show(
     Path(id): Path<String>,
 ) -> Result<Json<JobView>, ApiError> {
     let job = super::load(&state, &tenant, &id).await?;
-    Ok(Json(JobView::from(&job)))
+    Ok(Json(JobView::new(&job, &state.config)))
 }

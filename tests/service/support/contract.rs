@@ -152,6 +152,83 @@ impl Contract {
         }
     }
 
+    /// Validates every example in the document (parameters, request bodies, responses)
+    /// against the schema beside it; returns how many there were.
+    pub fn check_examples(&mut self) -> usize {
+        let mut found: Vec<(String, Value)> = vec![];
+        let doc = self.doc.clone();
+        // (pointer of a content or parameter object, the object)
+        let mut places: Vec<(String, &Value)> = vec![];
+        for (path, item) in doc["paths"].as_object().unwrap() {
+            let at = format!("/paths/{}", token(path));
+            for (i, p) in item["parameters"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .enumerate()
+            {
+                places.push((format!("{at}/parameters/{i}"), p));
+            }
+            for (method, op) in item.as_object().unwrap() {
+                let at = format!("{at}/{method}");
+                for (i, p) in op["parameters"]
+                    .as_array()
+                    .into_iter()
+                    .flatten()
+                    .enumerate()
+                {
+                    places.push((format!("{at}/parameters/{i}"), p));
+                }
+                for (media, c) in op["requestBody"]["content"]
+                    .as_object()
+                    .into_iter()
+                    .flatten()
+                {
+                    places.push((format!("{at}/requestBody/content/{}", token(media)), c));
+                }
+                for (status, r) in op["responses"].as_object().into_iter().flatten() {
+                    if r.get("$ref").is_some() {
+                        continue;
+                    }
+                    for (media, c) in r["content"].as_object().into_iter().flatten() {
+                        let at = format!("{at}/responses/{status}/content/{}", token(media));
+                        places.push((at, c));
+                    }
+                }
+            }
+        }
+        for (name, r) in doc["components"]["responses"].as_object().unwrap() {
+            for (media, c) in r["content"].as_object().into_iter().flatten() {
+                let at = format!("/components/responses/{name}/content/{}", token(media));
+                places.push((at, c));
+            }
+        }
+        for (name, p) in doc["components"]["parameters"].as_object().unwrap() {
+            places.push((format!("/components/parameters/{name}"), p));
+        }
+        for (at, place) in places {
+            if place.get("$ref").is_some() || place.get("schema").is_none() {
+                continue;
+            }
+            let schema = format!("{at}/schema");
+            if let Some(e) = place.get("example") {
+                found.push((schema.clone(), e.clone()));
+            }
+            for (_, e) in place["examples"].as_object().into_iter().flatten() {
+                let e = match e["$ref"].as_str() {
+                    Some(r) => &doc["components"]["examples"][r.rsplit('/').next().unwrap()],
+                    None => e,
+                };
+                found.push((schema.clone(), e["value"].clone()));
+            }
+        }
+        for (schema, example) in &found {
+            assert!(!example.is_null(), "{schema}: an empty example");
+            self.validate(schema, example);
+        }
+        found.len()
+    }
+
     fn error_body(&mut self, body: &[u8], code: &str) {
         let value: Value = serde_json::from_slice(body).unwrap();
         self.validate("/components/schemas/Error", &value);

@@ -1,0 +1,256 @@
+//! What creating a job and re-planning one share: the query's options (parameters, metadata,
+//! callback), the `Idempotency-Key`, and recording the job.
+
+use asbuilt_plan::Params;
+use axum::http::header::LOCATION;
+use axum::http::{HeaderMap, HeaderName, HeaderValue, StatusCode};
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use sha2::{Digest, Sha256};
+
+use crate::app::AppState;
+use crate::errors::{ApiError, Code};
+use crate::queue::{Idempotency, Inserted, Job, JobMeta, NewJob};
+use crate::storage::keys;
+use crate::views::JobView;
+
+/// The header a client sets to make a create safe to retry.
+pub const IDEMPOTENCY_KEY: &str = "idempotency-key";
+/// Set on the answer to a retry that returned the first job.
+pub const REPLAYED: HeaderName = HeaderName::from_static("idempotent-replayed");
+
+/// Limits on what a client attaches to a job.
+pub const MAX_EXTERNAL_REF: usize = 200;
+pub const MAX_TAGS: usize = 20;
+pub const MAX_TAG: usize = 64;
+pub const MAX_IDEMPOTENCY_KEY: usize = 255;
+
+/// The query string of a create or re-plan, checked before a byte of the body is stored.
+#[derive(Debug, Default)]
+pub struct Options {
+    pub filename: Option<String>,
+    /// `section.name=value` parameter overrides.
+    pub overrides: Vec<String>,
+    pub meta: JobMeta,
+}
+
+impl Options {
+    /// Sorts the query's pairs into options; parameters are checked by name, value and range.
+    pub fn parse(pairs: Vec<(String, String)>) -> Result<Options, ApiError> {
+        let mut o = Options::default();
+        for (key, value) in pairs {
+            match key.as_str() {
+                "filename" => o.filename = Some(clean_filename(&value)),
+                "external_ref" => {
+                    if o.meta.external_ref.is_some() {
+                        return Err(ApiError::param("external_ref", "give one `external_ref`"));
+                    }
+                    o.meta.external_ref = Some(check_external_ref(&value)?);
+                }
+                "tag" => add_tag(&mut o.meta.tags, &value)?,
+                _ => {
+                    Params::check_override(&format!("{key}={value}"))
+                        .map_err(|e| super::create::params_error(&e, Some(key.as_str())))?;
+                    o.overrides.push(format!("{key}={value}"));
+                }
+            }
+        }
+        Ok(o)
+    }
+}
+
+/// Keeps a display name: the last path segment, printable, at most 200 characters.
+pub fn clean_filename(raw: &str) -> String {
+    let last = raw.rsplit(['/', '\\']).next().unwrap_or_default();
+    last.chars().filter(|c| !c.is_control()).take(200).collect()
+}
+
+/// An external reference: 1 to 200 characters, none of them control characters.
+pub fn check_external_ref(value: &str) -> Result<String, ApiError> {
+    let n = value.chars().count();
+    if n == 0 || n > MAX_EXTERNAL_REF || value.chars().any(char::is_control) {
+        return Err(ApiError::param(
+            "external_ref",
+            format!("1 to {MAX_EXTERNAL_REF} characters, no control characters"),
+        ));
+    }
+    Ok(value.to_string())
+}
+
+/// Adds a tag (1 to 64 ASCII letters, digits or `-_.:/=@`), once; at most 20 tags.
+pub fn add_tag(tags: &mut Vec<String>, value: &str) -> Result<(), ApiError> {
+    let ok_char = |c: char| c.is_ascii_alphanumeric() || "-_.:/=@".contains(c);
+    let n = value.chars().count();
+    if n == 0 || n > MAX_TAG || !value.chars().all(ok_char) {
+        return Err(ApiError::param(
+            "tag",
+            format!("a tag is 1 to {MAX_TAG} letters, digits or - _ . : / = @"),
+        ));
+    }
+    if !tags.iter().any(|t| t == value) {
+        if tags.len() == MAX_TAGS {
+            return Err(ApiError::param("tag", format!("at most {MAX_TAGS} tags")));
+        }
+        tags.push(value.to_string());
+    }
+    Ok(())
+}
+
+/// The request's `Idempotency-Key`: 1 to 255 visible ASCII characters.
+pub fn idempotency_key(headers: &HeaderMap) -> Result<Option<String>, ApiError> {
+    let mut values = headers.get_all(IDEMPOTENCY_KEY).iter();
+    let Some(value) = values.next() else {
+        return Ok(None);
+    };
+    let bad = || {
+        ApiError::param(
+            "Idempotency-Key",
+            format!("one header of 1 to {MAX_IDEMPOTENCY_KEY} visible ASCII characters"),
+        )
+    };
+    if values.next().is_some() {
+        return Err(bad());
+    }
+    let key = value.to_str().map_err(|_| bad())?;
+    if key.is_empty()
+        || key.len() > MAX_IDEMPOTENCY_KEY
+        || !key.bytes().all(|b| b.is_ascii_graphic())
+    {
+        return Err(bad());
+    }
+    Ok(Some(key.to_string()))
+}
+
+/// What a request asked for, as a hash: a retry with the same key must ask for the same.
+pub struct Fingerprint<'a> {
+    pub params: &'a Params,
+    /// The cloud's SHA-256, or for a re-plan the job re-planned.
+    pub cloud: String,
+    /// The sidecar's kind and SHA-256, when one came with the request.
+    pub sidecar: Option<(&'a str, String)>,
+    pub meta: &'a JobMeta,
+    pub callback_url: Option<&'a str>,
+}
+
+impl Fingerprint<'_> {
+    pub fn hash(&self) -> String {
+        let doc = serde_json::json!({
+            "params": self.params.to_json(),
+            "cloud": self.cloud,
+            "sidecar": self.sidecar,
+            "external_ref": self.meta.external_ref,
+            "tags": self.meta.tags,
+            "callback_url": self.callback_url,
+        });
+        Sha256::digest(doc.to_string().as_bytes())
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect()
+    }
+}
+
+/// Records `job` (whose blobs are already stored under its id) and answers: `202` and the new
+/// job, or with an idempotency key already used, `200` and the first job when the request is
+/// the same, `422 idempotency_key_reused` when it is not. Whatever the answer, blobs that no
+/// job keeps are deleted.
+pub async fn record(
+    state: &AppState,
+    job: NewJob,
+    prior: Option<Job>,
+) -> Result<Response, ApiError> {
+    let id = job.id;
+    let discard = || async {
+        if let Err(e) = state.blobs.delete_prefix(&keys::job_prefix(id)).await {
+            tracing::error!(job = %id, error = %e, "removing an upload no job keeps");
+        }
+    };
+    if let Some(prior) = prior {
+        discard().await;
+        return replay(state, prior, job.idempotency.as_ref());
+    }
+    let cap = state.config.max_queued;
+    let tenant = job.tenant.clone();
+    let key = job.idempotency.clone();
+    let source = job.replan_of.map(|(s, _)| s);
+    let inserted = match state.store.insert(job, cap).await {
+        Ok(i) => i,
+        Err(e) => {
+            discard().await;
+            return Err(e.into());
+        }
+    };
+    let job = match inserted {
+        Inserted::Created(job) => *job,
+        Inserted::QueueFull => {
+            discard().await;
+            return Err(super::create::queue_full(cap));
+        }
+        Inserted::SourceGone => {
+            discard().await;
+            let source = source.unwrap_or(id);
+            return Err(super::missing(state, &tenant, source).await);
+        }
+        Inserted::KeyTaken => {
+            // A concurrent request with the same key won the race.
+            discard().await;
+            let key = key.as_ref().expect("only keyed jobs collide");
+            let Some(first) = state.store.by_idempotency_key(&tenant, &key.key).await? else {
+                return Err(ApiError::internal(
+                    "an idempotency key collided with no job",
+                ));
+            };
+            return replay(state, first, Some(key));
+        }
+    };
+    state.metrics.upload(job.upload.bytes);
+    state.queued.notify_one();
+    state.changed(job.id);
+    tracing::info!(job = %job.id, bytes = job.upload.bytes, replan = job.is_replan(), "job queued");
+    Ok((
+        StatusCode::ACCEPTED,
+        [(LOCATION, format!("/v1/jobs/{}", job.id))],
+        Json(JobView::new(&job, &state.config)),
+    )
+        .into_response())
+}
+
+/// The answer to a retry: the first job, or a refusal when the request differs.
+fn replay(state: &AppState, first: Job, key: Option<&Idempotency>) -> Result<Response, ApiError> {
+    let asked = key.map(|k| k.request_hash.as_str());
+    let had = first.idempotency.as_ref().map(|k| k.request_hash.as_str());
+    if asked != had {
+        return Err(ApiError::new(
+            Code::IdempotencyKeyReused,
+            format!(
+                "this Idempotency-Key was used for job {} with a different request (cloud, \
+                 sidecar, parameters or metadata); use a new key for a new job",
+                first.id
+            ),
+        ));
+    }
+    tracing::info!(job = %first.id, "idempotent retry: the first job answered");
+    Ok((
+        StatusCode::OK,
+        [
+            (
+                LOCATION,
+                HeaderValue::from_str(&format!("/v1/jobs/{}", first.id)).expect("ascii"),
+            ),
+            (REPLAYED, HeaderValue::from_static("true")),
+        ],
+        Json(JobView::new(&first, &state.config)),
+    )
+        .into_response())
+}
+
+/// The tenant's job already made with `key`, looked up before anything is stored.
+pub async fn prior(
+    state: &AppState,
+    tenant: &str,
+    key: Option<&str>,
+) -> Result<Option<Job>, ApiError> {
+    match key {
+        Some(k) => Ok(state.store.by_idempotency_key(tenant, k).await?),
+        None => Ok(None),
+    }
+}

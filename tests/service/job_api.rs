@@ -1,0 +1,732 @@
+//! The integrator's job API (issue 16), end to end against a real server in process, on both
+//! job stores: SQLite (embedded) and PostgreSQL (`ASBUILT_TEST_POSTGRES`; skipped without it,
+//! a failure under CI). Blobs stay in a local directory. Every answer is also checked against
+//! the published OpenAPI document.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use asbuilt::config::Config;
+use asbuilt::worker::fake::FakePipeline;
+use asbuilt::worker::pipeline::Pipeline;
+use serde_json::Value;
+
+use crate::support::contract::Contract;
+use crate::support::engines::{postgres_only, Engines};
+use crate::support::server::{self, expect_error, xyz, Server};
+
+/// Where a case's server keeps its jobs.
+struct Env {
+    backend: &'static str,
+    pg: Option<(Engines, String)>,
+}
+
+impl Env {
+    fn sqlite() -> Env {
+        Env {
+            backend: "sqlite",
+            pg: None,
+        }
+    }
+
+    async fn postgres(test: &str) -> Option<Env> {
+        let engines = postgres_only(test)?;
+        let schema = engines.new_schema("jobapi").await;
+        Some(Env {
+            backend: "postgres",
+            pg: Some((engines, schema)),
+        })
+    }
+
+    /// A server on this backend with the fake pipeline taking `ms` per stage.
+    async fn start(&self, ms: u64, tweak: impl FnOnce(&mut Config)) -> Server {
+        self.start_with(fake(ms), tweak).await
+    }
+
+    async fn start_with(
+        &self,
+        pipeline: Arc<dyn Pipeline>,
+        tweak: impl FnOnce(&mut Config),
+    ) -> Server {
+        let url = self.pg.as_ref().map(|(e, s)| e.url_in(s));
+        if let Some(url) = &url {
+            // A shared database is migrated by `asbuilt migrate`, not by the server.
+            let c = Config {
+                database_url: Some(url.clone()),
+                ..Config::default()
+            };
+            asbuilt::app::open_store(&c).await.unwrap();
+        }
+        server::start(pipeline, |c| {
+            c.database_url = url;
+            tweak(c);
+        })
+        .await
+    }
+
+    async fn finish(self) {
+        if let Some((e, schema)) = &self.pg {
+            e.drop_schema(schema).await;
+        }
+    }
+}
+
+fn fake(ms: u64) -> Arc<dyn Pipeline> {
+    Arc::new(FakePipeline {
+        stage_time: Duration::from_millis(ms),
+        completions: None,
+        spin: false,
+    })
+}
+
+macro_rules! on_both_backends {
+    ($($name:ident),* $(,)?) => {
+        mod sqlite {
+            $(#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+            async fn $name() {
+                let env = super::Env::sqlite();
+                super::$name(&env).await;
+                env.finish().await;
+            })*
+        }
+        mod postgres {
+            $(#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+            async fn $name() {
+                let Some(env) = super::Env::postgres(stringify!($name)).await else {
+                    return;
+                };
+                super::$name(&env).await;
+                env.finish().await;
+            })*
+        }
+    };
+}
+
+on_both_backends!(
+    cancel_stops_the_job_and_keeps_it_readable,
+    expired_jobs_answer_410_and_unknown_ones_404,
+    idempotency_keys_return_the_first_job,
+    metadata_is_kept_shown_and_filtered,
+    replans_reuse_the_upload_and_share_it_safely,
+);
+
+/// Every example in the document matches its schema, and every operation of the job API has
+/// an example of its request (where it takes one) and of its successful answer.
+#[test]
+fn the_documents_examples_are_valid() {
+    let mut contract = Contract::load();
+    let n = contract.check_examples();
+    assert!(n >= 20, "{n} examples");
+    let doc: Value = serde_yaml::from_str(asbuilt::openapi::YAML).unwrap();
+    for (path, method, status) in [
+        ("/v1/jobs", "post", "202"),
+        ("/v1/jobs", "post", "200"),
+        ("/v1/jobs/{id}/replan", "post", "202"),
+        ("/v1/jobs/{id}/cancel", "post", "200"),
+    ] {
+        let op = &doc["paths"][path][method];
+        let content = &op["responses"][status]["content"]["application/json"];
+        assert!(
+            content.get("example").is_some() || content.get("examples").is_some(),
+            "{method} {path} {status} has no example"
+        );
+        for (media, c) in op["requestBody"]["content"]
+            .as_object()
+            .into_iter()
+            .flatten()
+        {
+            assert!(
+                c.get("example").is_some(),
+                "{method} {path}: {media} has no example"
+            );
+        }
+    }
+}
+
+/// Sends a request, checks the answer against the document; its status, headers and body.
+async fn call(
+    contract: &mut Contract,
+    method: &str,
+    path: &str,
+    req: reqwest::RequestBuilder,
+) -> (u16, reqwest::header::HeaderMap, Vec<u8>) {
+    let res = req.send().await.unwrap();
+    let status = res.status().as_u16();
+    let headers = res.headers().clone();
+    let media = headers
+        .get("content-type")
+        .map(|v| v.to_str().unwrap().to_string())
+        .unwrap_or_default();
+    let body = res.bytes().await.unwrap().to_vec();
+    contract.answer(method, path, status, &media, &body);
+    (status, headers, body)
+}
+
+fn json(body: &[u8]) -> Value {
+    serde_json::from_slice(body).unwrap()
+}
+
+/// Polls the job until `pred` holds.
+async fn wait_for(s: &Server, id: &str, what: &str, pred: impl Fn(&Value) -> bool) -> Value {
+    let end = Instant::now() + Duration::from_secs(20);
+    loop {
+        let job = s.job(id).await;
+        if pred(&job) {
+            return job;
+        }
+        assert!(Instant::now() < end, "{what}: job is {job}");
+        tokio::time::sleep(Duration::from_millis(25)).await;
+    }
+}
+
+async fn cancel_stops_the_job_and_keeps_it_readable(env: &Env) {
+    let mut s = env.start(400, |c| c.workers = 1).await;
+    let mut contract = Contract::load();
+    let running = s.upload(xyz(5)).await["id"].as_str().unwrap().to_string();
+    let queued = s.upload(xyz(5)).await["id"].as_str().unwrap().to_string();
+    wait_for(&s, &running, "running", |j| j["status"] == "running").await;
+
+    let path = format!("/v1/jobs/{running}/cancel");
+    let t0 = Instant::now();
+    let (status, _, body) = call(&mut contract, "POST", &path, s.post(&path)).await;
+    assert_eq!(status, 200, "{}", env.backend);
+    let job = json(&body);
+    assert_eq!(job["status"], "cancelled");
+    assert!(job["finished_at"].is_string());
+    // Still readable, still listed, and the worker moves on to the queued job.
+    assert_eq!(s.job(&running).await["status"], "cancelled");
+    let list: Value = s
+        .get("/v1/jobs")
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    assert!(list["jobs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|j| j["id"] == running.as_str()));
+    let next = wait_for(&s, &queued, "the next job starts", |j| {
+        j["status"] != "queued"
+    })
+    .await;
+    assert!(
+        t0.elapsed() < Duration::from_secs(3),
+        "the worker was not freed: {:?}, {next}",
+        t0.elapsed()
+    );
+    // Cancelling again answers the same job; its results never appear.
+    let (status, _, body) = call(&mut contract, "POST", &path, s.post(&path)).await;
+    assert_eq!(
+        (status, json(&body)["status"].clone()),
+        (200, "cancelled".into())
+    );
+    let geojson = format!("/v1/jobs/{running}/plan.geojson");
+    expect_error(
+        s.get(&geojson).send().await.unwrap(),
+        409,
+        "result_not_ready",
+    )
+    .await;
+    // A queued job is cancelled before it ever runs.
+    let third = s.upload(xyz(5)).await["id"].as_str().unwrap().to_string();
+    let p3 = format!("/v1/jobs/{third}/cancel");
+    let (status, _, body) = call(&mut contract, "POST", &p3, s.post(&p3)).await;
+    assert_eq!((status, json(&body)["attempts"].clone()), (200, 0.into()));
+    // A finished job cannot be cancelled: 409, and it stays succeeded.
+    let done = s.wait_done(&queued, Duration::from_secs(20)).await;
+    assert_eq!(done["status"], "succeeded");
+    let p2 = format!("/v1/jobs/{queued}/cancel");
+    let (status, _, body) = call(&mut contract, "POST", &p2, s.post(&p2)).await;
+    assert_eq!(status, 409);
+    assert_eq!(json(&body)["error"]["code"], "job_finished");
+    assert_eq!(s.job(&queued).await["status"], "succeeded");
+    // Unknown ids are 404, and DELETE still removes a cancelled job.
+    let nope = format!("/v1/jobs/{}/cancel", asbuilt::queue::JobId::new());
+    assert_eq!(
+        call(&mut contract, "POST", &nope, s.post(&nope)).await.0,
+        404
+    );
+    let del = s
+        .delete(&format!("/v1/jobs/{running}"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(del.status(), 204);
+    expect_error(
+        s.get(&format!("/v1/jobs/{running}")).send().await.unwrap(),
+        404,
+        "not_found",
+    )
+    .await;
+    s.stop().await;
+}
+
+/// RFC 3339 to Unix milliseconds.
+fn ms(t: &Value) -> i64 {
+    chrono::DateTime::parse_from_rfc3339(t.as_str().expect("a time"))
+        .unwrap()
+        .timestamp_millis()
+}
+
+async fn expired_jobs_answer_410_and_unknown_ones_404(env: &Env) {
+    let mut contract = Contract::load();
+    // A week's retention: `expires_at` is null while the job runs, then a week after its end.
+    let mut s = env.start(1, |_| {}).await;
+    let job = s.upload(xyz(5)).await;
+    assert!(job["expires_at"].is_null(), "{job}");
+    let id = job["id"].as_str().unwrap().to_string();
+    let done = s.wait_done(&id, Duration::from_secs(20)).await;
+    assert_eq!(
+        ms(&done["expires_at"]) - ms(&done["finished_at"]),
+        168 * 3_600_000,
+        "{}",
+        env.backend
+    );
+    contract.job(&done);
+    let list: Value = s
+        .get("/v1/jobs")
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    assert_eq!(list["jobs"][0]["expires_at"], done["expires_at"]);
+    s.stop().await;
+
+    // No retention: the sweeper removes a finished job at once, leaving a tombstone.
+    let mut s = env
+        .start(1, |c| {
+            c.retention_hours = 0;
+            c.api_keys = vec![
+                "acme:acme-secret-key-0001".into(),
+                "bolt:bolt-secret-key-0002".into(),
+            ];
+        })
+        .await;
+    let id = s.upload(xyz(5)).await["id"].as_str().unwrap().to_string();
+    let end = Instant::now() + Duration::from_secs(20);
+    let gone = loop {
+        let path = format!("/v1/jobs/{id}");
+        let (status, _, body) = call(&mut contract, "GET", &path, s.get(&path)).await;
+        if status == 410 {
+            break json(&body);
+        }
+        assert!(status == 200 && Instant::now() < end, "{status}");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    };
+    assert_eq!(gone["error"]["code"], "expired");
+    assert!(gone["error"]["message"]
+        .as_str()
+        .unwrap()
+        .contains("retention"));
+    // Every per-job call says the same; its blobs are gone.
+    for (method, path) in [
+        ("GET", format!("/v1/jobs/{id}/plan.geojson")),
+        ("GET", format!("/v1/jobs/{id}/events")),
+        ("POST", format!("/v1/jobs/{id}/cancel")),
+        ("DELETE", format!("/v1/jobs/{id}")),
+    ] {
+        let req = match method {
+            "GET" => s.get(&path),
+            "POST" => s.post(&path),
+            _ => s.delete(&path),
+        };
+        let (status, _, body) = call(&mut contract, method, &path, req).await;
+        assert_eq!(
+            (status, json(&body)["error"]["code"].clone()),
+            (410, "expired".into()),
+            "{method} {path}"
+        );
+    }
+    assert!(crate::support::files_under(&s.blobs()).is_empty());
+    // A job that never existed is still 404.
+    let never = format!("/v1/jobs/{}", asbuilt::queue::JobId::new());
+    let (status, _, body) = call(&mut contract, "GET", &never, s.get(&never)).await;
+    assert_eq!(
+        (status, json(&body)["error"]["code"].clone()),
+        (404, "not_found".into())
+    );
+    // Another tenant never learns that the job existed: a tombstone is the tenant's own.
+    let bolt = s
+        .client
+        .get(s.url(&format!("/v1/jobs/{id}")))
+        .bearer_auth("bolt-secret-key-0002");
+    let (status, _, _) = call(&mut contract, "GET", &format!("/v1/jobs/{id}"), bolt).await;
+    assert_eq!(status, 404);
+    s.stop().await;
+}
+
+/// Every job row the tenant can list (up to 100).
+async fn listed(s: &Server, query: &str) -> Vec<Value> {
+    let res = s
+        .get(&format!("/v1/jobs?limit=100{query}"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(res.status(), 200, "{query}");
+    let page: Value = res.json().await.unwrap();
+    page["jobs"].as_array().unwrap().clone()
+}
+
+async fn idempotency_keys_return_the_first_job(env: &Env) {
+    let mut s = env
+        .start(1, |c| {
+            c.max_queued = 2;
+            c.workers = 0;
+        })
+        .await;
+    let mut contract = Contract::load();
+    let path = "/v1/jobs?samples.cell_size=0.1";
+    let send = |key: &str, body: String| {
+        s.post(path)
+            .header("Idempotency-Key", key.to_string())
+            .body(body)
+    };
+    let (status, headers, body) = call(&mut contract, "POST", path, send("order-7", xyz(9))).await;
+    assert_eq!(status, 202, "{}", env.backend);
+    let first = json(&body);
+    assert!(headers.get("idempotent-replayed").is_none());
+    // The retry answers the first job: 200, the same id, nothing new stored or listed.
+    let (status, headers, body) = call(&mut contract, "POST", path, send("order-7", xyz(9))).await;
+    assert_eq!(status, 200);
+    assert_eq!(headers["idempotent-replayed"], "true");
+    assert_eq!(
+        headers["location"],
+        format!("/v1/jobs/{}", first["id"].as_str().unwrap())
+    );
+    assert_eq!(json(&body)["id"], first["id"]);
+    assert_eq!(listed(&s, "").await.len(), 1);
+    let blobs = crate::support::files_under(&s.blobs());
+    assert_eq!(blobs.len(), 1, "{blobs:?}");
+    // The same key with another cloud, or other parameters: 422, nothing stored.
+    let (status, _, body) = call(&mut contract, "POST", path, send("order-7", xyz(10))).await;
+    assert_eq!(
+        (status, json(&body)["error"]["code"].clone()),
+        (422, "idempotency_key_reused".into())
+    );
+    let other = "/v1/jobs?samples.cell_size=0.2";
+    let req = s
+        .post(other)
+        .header("Idempotency-Key", "order-7")
+        .body(xyz(9));
+    let (status, _, body) = call(&mut contract, "POST", other, req).await;
+    assert_eq!(
+        (status, json(&body)["error"]["code"].clone()),
+        (422, "idempotency_key_reused".into())
+    );
+    assert_eq!(crate::support::files_under(&s.blobs()).len(), 1);
+    // Keys are per key holder; a new key is a new job; a retry is answered even at the cap.
+    let (status, _, _) = call(&mut contract, "POST", path, send("order-8", xyz(9))).await;
+    assert_eq!(status, 202);
+    let (status, _, body) = call(&mut contract, "POST", path, send("order-9", xyz(9))).await;
+    assert_eq!(
+        (status, json(&body)["error"]["code"].clone()),
+        (429, "queue_full".into())
+    );
+    let (status, _, _) = call(&mut contract, "POST", path, send("order-7", xyz(9))).await;
+    assert_eq!(status, 200, "a retry is not a new job");
+    // Concurrent retries of one new key make one job.
+    let jobs_before = listed(&s, "").await.len();
+    s.stop().await;
+    let mut s = env.start(1, |c| c.workers = 0).await;
+    // On PostgreSQL the first server's jobs are still in the database.
+    let existing = listed(&s, "").await.len();
+    let tries: Vec<_> = (0..6)
+        .map(|_| {
+            let req = s
+                .post("/v1/jobs")
+                .header("Idempotency-Key", "burst-1")
+                .body(xyz(20));
+            tokio::spawn(async move {
+                let res = req.send().await.unwrap();
+                let status = res.status().as_u16();
+                (status, res.json::<Value>().await.unwrap()["id"].clone())
+            })
+        })
+        .collect();
+    let mut ids = std::collections::BTreeSet::new();
+    let mut created = 0;
+    for t in tries {
+        let (status, id) = t.await.unwrap();
+        assert!(status == 200 || status == 202, "{status}");
+        created += usize::from(status == 202);
+        ids.insert(id.as_str().unwrap().to_string());
+    }
+    assert_eq!((created, ids.len()), (1, 1), "{}", env.backend);
+    assert_eq!(listed(&s, "").await.len(), existing + 1);
+    assert_eq!(crate::support::files_under(&s.blobs()).len(), 1);
+    assert!(jobs_before == 2);
+    // Bad keys are refused before the upload.
+    for bad in ["", &"k".repeat(256), "naïve"] {
+        let req = s
+            .post("/v1/jobs")
+            .header("Idempotency-Key", bad)
+            .body(xyz(3));
+        let res = req.send().await.unwrap();
+        let body = expect_error(res, 422, "invalid_parameter").await;
+        assert_eq!(body["error"]["param"], "Idempotency-Key");
+    }
+    s.stop().await;
+}
+
+async fn metadata_is_kept_shown_and_filtered(env: &Env) {
+    let mut s = env.start(1, |_| {}).await;
+    let mut contract = Contract::load();
+    let path = "/v1/jobs?external_ref=building-42%2Flevel-3&tag=fm&tag=north-wing&tag=fm";
+    let (status, _, body) = call(&mut contract, "POST", path, s.post(path).body(xyz(5))).await;
+    assert_eq!(status, 202, "{}", env.backend);
+    let job = json(&body);
+    assert_eq!(job["external_ref"], "building-42/level-3");
+    assert_eq!(job["tags"], serde_json::json!(["fm", "north-wing"]));
+    let id = job["id"].as_str().unwrap().to_string();
+    // Multipart: the metadata is in the query string too.
+    let form =
+        reqwest::multipart::Form::new().part("cloud", reqwest::multipart::Part::text(xyz(5)));
+    let m = "/v1/jobs?external_ref=building-7&tag=fm";
+    let (status, _, body) = call(&mut contract, "POST", m, s.post(m).multipart(form)).await;
+    assert_eq!(status, 202);
+    let other = json(&body)["id"].as_str().unwrap().to_string();
+    s.upload(xyz(5)).await;
+    // Every read shows it: the job, the list, the events.
+    let done = s.wait_done(&id, Duration::from_secs(20)).await;
+    assert_eq!(
+        (done["external_ref"].clone(), done["tags"].clone()),
+        (job["external_ref"].clone(), job["tags"].clone())
+    );
+    let events = s
+        .get(&format!("/v1/jobs/{id}/events"))
+        .send()
+        .await
+        .unwrap()
+        .text()
+        .await
+        .unwrap();
+    assert!(
+        events.contains("\"external_ref\":\"building-42/level-3\""),
+        "{events}"
+    );
+    // Filters: by reference, by one tag, by every tag asked, and both.
+    let ids = |jobs: Vec<Value>| -> Vec<String> {
+        jobs.iter()
+            .map(|j| j["id"].as_str().unwrap().to_string())
+            .collect()
+    };
+    assert_eq!(listed(&s, "").await.len(), 3);
+    assert_eq!(
+        ids(listed(&s, "&external_ref=building-42%2Flevel-3").await),
+        vec![id.clone()]
+    );
+    assert_eq!(
+        ids(listed(&s, "&tag=fm").await),
+        vec![other.clone(), id.clone()]
+    );
+    assert_eq!(
+        ids(listed(&s, "&tag=fm&tag=north-wing").await),
+        vec![id.clone()]
+    );
+    assert_eq!(
+        ids(listed(&s, "&tag=north-wing&external_ref=building-7").await),
+        Vec::<String>::new()
+    );
+    assert!(listed(&s, "&tag=nope").await.is_empty());
+    let q = "/v1/jobs?tag=fm&external_ref=building-7";
+    let (status, _, body) = call(&mut contract, "GET", q, s.get(q)).await;
+    assert_eq!(status, 200);
+    assert_eq!(
+        ids(json(&body)["jobs"].as_array().unwrap().clone()),
+        vec![other]
+    );
+    // Hostile values: refused with 422 naming the field, before anything is stored.
+    let many: String = (0..21).map(|i| format!("&tag=t{i}")).collect();
+    let long_ref = format!("&external_ref={}", "r".repeat(201));
+    let long_tag = format!("&tag={}", "t".repeat(65));
+    for (query, param) in [
+        (many.as_str(), "tag"),
+        (long_ref.as_str(), "external_ref"),
+        (long_tag.as_str(), "tag"),
+        ("&tag=a%20b", "tag"),
+        ("&tag=", "tag"),
+        ("&external_ref=a%0Ab", "external_ref"),
+        ("&external_ref=a&external_ref=b", "external_ref"),
+    ] {
+        let path = format!("/v1/jobs?x=1{query}").replace("?x=1&", "?");
+        let (status, _, body) =
+            call(&mut contract, "POST", &path, s.post(&path).body(xyz(3))).await;
+        assert_eq!(status, 422, "{query}");
+        assert_eq!(json(&body)["error"]["param"], param, "{query}");
+        if param != "external_ref" || !query.contains("&external_ref=b") {
+            let list = format!("/v1/jobs?x=1{query}").replace("?x=1&", "?");
+            let (status, _, _) = call(&mut contract, "GET", &list, s.get(&list)).await;
+            assert_eq!(status, 422, "list {query}");
+        }
+    }
+    assert_eq!(listed(&s, "").await.len(), 3);
+    s.stop().await;
+}
+
+async fn replans_reuse_the_upload_and_share_it_safely(env: &Env) {
+    let mut s = env.start(1, |_| {}).await;
+    let mut contract = Contract::load();
+    let form = reqwest::multipart::Form::new()
+        .part("cloud", reqwest::multipart::Part::text(xyz(12)))
+        .part("poses", reqwest::multipart::Part::text("{\"scans\": []}"));
+    let res = s
+        .post("/v1/jobs?samples.cell_size=0.1&tag=first")
+        .multipart(form)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(res.status(), 202);
+    let first: Value = res.json().await.unwrap();
+    let a = first["id"].as_str().unwrap().to_string();
+    s.wait_done(&a, Duration::from_secs(20)).await;
+    let stored = crate::support::files_under(&s.blobs()).len();
+
+    // Other parameters, the same upload: no cloud is sent, none is stored.
+    let path = format!("/v1/jobs/{a}/replan?fitting.iterations=50&tag=second");
+    let (status, headers, body) = call(&mut contract, "POST", &path, s.post(&path)).await;
+    assert_eq!(
+        status,
+        202,
+        "{}: {}",
+        env.backend,
+        String::from_utf8_lossy(&body)
+    );
+    let b_job = json(&body);
+    let b = b_job["id"].as_str().unwrap().to_string();
+    assert_eq!(headers["location"], format!("/v1/jobs/{b}"));
+    assert_eq!(b_job["source_job"], a.as_str());
+    assert_eq!(
+        b_job["upload"], first["upload"],
+        "the same upload, sidecar included"
+    );
+    assert_eq!(
+        b_job["parameters"]["samples"]["cell_size"], 0.1,
+        "inherited"
+    );
+    assert_eq!(
+        b_job["parameters"]["fitting"]["iterations"], 50,
+        "overridden"
+    );
+    assert_eq!(b_job["tags"], serde_json::json!(["second"]));
+    let done_b = s.wait_done(&b, Duration::from_secs(20)).await;
+    assert_eq!(done_b["status"], "succeeded", "{done_b}");
+    assert_eq!(
+        done_b["input"]["points"], 12,
+        "it read the first job's cloud"
+    );
+    assert!(first["source_job"].is_null());
+
+    // Other poses and a params part, re-planning the re-plan: still the first upload.
+    let form = reqwest::multipart::Form::new()
+        .part(
+            "trajectory",
+            reqwest::multipart::Part::text("{\"samples\": []}"),
+        )
+        .part(
+            "params",
+            reqwest::multipart::Part::text("{\"samples\": {\"cell_size\": 0.2}}"),
+        );
+    let path = format!("/v1/jobs/{b}/replan");
+    let (status, _, body) = call(&mut contract, "POST", &path, s.post(&path).multipart(form)).await;
+    assert_eq!(status, 202, "{}", String::from_utf8_lossy(&body));
+    let c_job = json(&body);
+    let c = c_job["id"].as_str().unwrap().to_string();
+    assert_eq!(c_job["source_job"], a.as_str());
+    assert_eq!(c_job["upload"]["sidecar"], "trajectory");
+    assert_eq!(c_job["parameters"]["samples"]["cell_size"], 0.2);
+    assert_eq!(
+        c_job["parameters"]["fitting"]["iterations"],
+        Value::from(asbuilt_plan::Params::default().fitting.iterations)
+    );
+    assert_eq!(
+        s.wait_done(&c, Duration::from_secs(20)).await["status"],
+        "succeeded"
+    );
+
+    // Deleting the first job keeps the upload the others read; the last one takes it along.
+    assert_eq!(
+        s.delete(&format!("/v1/jobs/{a}"))
+            .send()
+            .await
+            .unwrap()
+            .status(),
+        204
+    );
+    let cloud = s.blobs().join(format!("jobs/{a}/input/cloud"));
+    assert!(
+        cloud.is_file(),
+        "the shared upload was deleted with its first job"
+    );
+    let again = format!("/v1/jobs/{b}/replan");
+    let (status, _, body) = call(&mut contract, "POST", &again, s.post(&again)).await;
+    assert_eq!(status, 202);
+    let d = json(&body)["id"].as_str().unwrap().to_string();
+    let done_d = s.wait_done(&d, Duration::from_secs(20)).await;
+    assert_eq!(
+        (done_d["status"].clone(), done_d["input"]["points"].clone()),
+        ("succeeded".into(), 12.into())
+    );
+    for id in [&b, &c] {
+        assert_eq!(
+            s.delete(&format!("/v1/jobs/{id}"))
+                .send()
+                .await
+                .unwrap()
+                .status(),
+            204
+        );
+        assert!(cloud.is_file());
+    }
+    assert_eq!(
+        s.delete(&format!("/v1/jobs/{d}"))
+            .send()
+            .await
+            .unwrap()
+            .status(),
+        204
+    );
+    let left = crate::support::files_under(&s.blobs());
+    assert!(
+        left.is_empty(),
+        "{left:?} (a first upload stored {stored} files)"
+    );
+
+    // Refusals: a cloud part, a body, an unknown job, a filename.
+    let e = s.upload(xyz(4)).await["id"].as_str().unwrap().to_string();
+    let path = format!("/v1/jobs/{e}/replan");
+    let form =
+        reqwest::multipart::Form::new().part("cloud", reqwest::multipart::Part::text(xyz(4)));
+    let (status, _, body) = call(&mut contract, "POST", &path, s.post(&path).multipart(form)).await;
+    assert_eq!(
+        (status, json(&body)["error"]["code"].clone()),
+        (400, "invalid_multipart".into())
+    );
+    let (status, _, _) = call(&mut contract, "POST", &path, s.post(&path).body(xyz(4))).await;
+    assert_eq!(status, 400);
+    let bad = format!("{path}?samples.cell_size=9");
+    let (status, _, body) = call(&mut contract, "POST", &bad, s.post(&bad)).await;
+    assert_eq!(
+        (status, json(&body)["error"]["param"].clone()),
+        (422, "samples.cell_size".into())
+    );
+    let nope = format!("/v1/jobs/{}/replan", asbuilt::queue::JobId::new());
+    assert_eq!(
+        call(&mut contract, "POST", &nope, s.post(&nope)).await.0,
+        404
+    );
+    // Idempotency holds for re-plans too.
+    let keyed = |k: &str| s.post(&path).header("Idempotency-Key", k.to_string());
+    let (status, _, body) = call(&mut contract, "POST", &path, keyed("rp-1")).await;
+    assert_eq!(status, 202);
+    let (status, _, again) = call(&mut contract, "POST", &path, keyed("rp-1")).await;
+    assert_eq!(
+        (status, json(&again)["id"].clone()),
+        (200, json(&body)["id"].clone())
+    );
+    s.stop().await;
+}
