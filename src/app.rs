@@ -41,6 +41,8 @@ pub struct App {
     pub queued: Notify,
     /// Cancelled when shutdown begins: readiness fails and event streams end.
     pub shutdown: CancellationToken,
+    /// Callback secrets, default URLs and the targets they may reach.
+    pub webhooks: crate::webhooks::Settings,
 }
 
 /// A cheap handle on [`App`].
@@ -167,7 +169,10 @@ pub async fn start(mut config: Config, pipeline: Arc<dyn Pipeline>) -> anyhow::R
     let store = start_store(&config).await?;
     let blobs = open_blobs(&config).await?;
     let shutdown = CancellationToken::new();
+    let webhooks =
+        crate::webhooks::Settings::from_config(&config).map_err(|e| anyhow::anyhow!(e))?;
     let state = AppState(Arc::new(App {
+        webhooks,
         keys: Keys::new(&keys, config.dev_mode()),
         limits: Limits::new(config.rate_limit, config.rate_burst),
         metrics: Metrics::default(),
@@ -213,6 +218,7 @@ pub async fn start(mut config: Config, pipeline: Arc<dyn Pipeline>) -> anyhow::R
     let worker_tasks = workers.spawn(state.config.workers);
     let sweeper_stop = CancellationToken::new();
     let sweeper = tokio::spawn(sweeper::run(state.clone(), sweeper_stop.clone()));
+    let hooks = tokio::spawn(crate::webhooks::run(state.clone(), sweeper_stop.clone()));
 
     let app = if state.config.serve_api {
         crate::router::build(state.clone())
@@ -296,6 +302,7 @@ pub async fn start(mut config: Config, pipeline: Arc<dyn Pipeline>) -> anyhow::R
         };
         sweeper_stop.cancel();
         let _ = sweeper.await;
+        let _ = hooks.await;
         keys_watch.abort();
         if let Some(m) = metrics_server {
             m.abort();

@@ -77,6 +77,17 @@ pub struct Config {
     /// A connection with no traffic either way for this long is closed, seconds (slow or
     /// silent clients, half-sent headers).
     pub idle_timeout_secs: u64,
+    /// Webhook signing secrets as `tenant:secret` (at least 16 characters): a tenant's
+    /// callbacks are signed with its secret, and a tenant without one cannot register any.
+    pub webhook_secrets: Vec<String>,
+    /// A tenant's default callback URL, `tenant:url`, for jobs created without `callback_url`.
+    pub webhook_urls: Vec<String>,
+    /// What callbacks may reach: `public` (any public address), host names and CIDR ranges.
+    pub webhook_allow: Vec<String>,
+    /// Attempts per webhook before giving up.
+    pub webhook_attempts: u32,
+    /// The wait after a failed attempt, milliseconds; it doubles after each (at most an hour).
+    pub webhook_backoff_ms: u64,
     /// Testing aid: replace the pipeline with a synthetic one taking this many ms per stage.
     #[serde(skip)]
     pub fake_pipeline_ms: Option<u64>,
@@ -121,6 +132,11 @@ impl Default for Config {
             upload_idle_timeout_secs: 30,
             upload_min_rate: 4096,
             idle_timeout_secs: 120,
+            webhook_secrets: vec![],
+            webhook_urls: vec![],
+            webhook_allow: vec!["public".into()],
+            webhook_attempts: 8,
+            webhook_backoff_ms: 10_000,
             fake_pipeline_ms: None,
             fake_pipeline_spin: false,
             serve_api: true,
@@ -222,6 +238,36 @@ pub struct ConfigArgs {
     /// Close a connection with no traffic for this long, seconds [default: 120].
     #[arg(long, env = "ASBUILT_IDLE_TIMEOUT", value_name = "SECS")]
     pub idle_timeout: Option<u64>,
+    /// Webhook signing secrets, `tenant:secret`, comma-separated or repeated.
+    #[arg(
+        long = "webhook-secret",
+        env = "ASBUILT_WEBHOOK_SECRETS",
+        value_name = "TENANT:SECRET",
+        value_delimiter = ','
+    )]
+    pub webhook_secrets: Vec<String>,
+    /// A tenant's default callback URL, `tenant:url`, comma-separated or repeated.
+    #[arg(
+        long = "webhook-url",
+        env = "ASBUILT_WEBHOOK_URLS",
+        value_name = "TENANT:URL",
+        value_delimiter = ','
+    )]
+    pub webhook_urls: Vec<String>,
+    /// What callbacks may reach: `public`, host names, CIDR ranges [default: public].
+    #[arg(
+        long = "webhook-allow",
+        env = "ASBUILT_WEBHOOK_ALLOW",
+        value_name = "HOST|CIDR|public",
+        value_delimiter = ','
+    )]
+    pub webhook_allow: Vec<String>,
+    /// Attempts per webhook before giving up [default: 8].
+    #[arg(long, env = "ASBUILT_WEBHOOK_ATTEMPTS", value_name = "N")]
+    pub webhook_attempts: Option<u32>,
+    /// Wait after a failed webhook attempt, ms, doubling each time [default: 10000].
+    #[arg(long, env = "ASBUILT_WEBHOOK_BACKOFF_MS", value_name = "MS")]
+    pub webhook_backoff_ms: Option<u64>,
     /// Testing aid: a synthetic pipeline taking MS per stage instead of the real one.
     #[arg(long, env = "ASBUILT_FAKE_PIPELINE_MS", value_name = "MS", hide = true)]
     pub fake_pipeline_ms: Option<u64>,
@@ -274,6 +320,16 @@ impl ConfigArgs {
         if !self.api_keys.is_empty() {
             c.api_keys = self.api_keys.clone();
         }
+        for (flag, field) in [
+            (&self.webhook_secrets, &mut c.webhook_secrets),
+            (&self.webhook_urls, &mut c.webhook_urls),
+            (&self.webhook_allow, &mut c.webhook_allow),
+        ] {
+            if !flag.is_empty() {
+                field.clone_from(flag);
+            }
+        }
+        take!(webhook_attempts => webhook_attempts, webhook_backoff_ms => webhook_backoff_ms);
         c.fake_pipeline_ms = self.fake_pipeline_ms;
         c.fake_pipeline_spin = self.fake_pipeline_spin;
         c.check()?;
@@ -322,6 +378,10 @@ impl Config {
         if let Some(path) = &self.api_keys_file {
             // Refuse to start on a bad file; a later bad edit is logged and the old keys kept.
             crate::auth::read_keys_file(path).map_err(|e| anyhow::anyhow!(e))?;
+        }
+        crate::webhooks::Settings::from_config(self).map_err(|e| anyhow::anyhow!(e))?;
+        if self.webhook_attempts == 0 {
+            bail!("webhook_attempts must be at least 1");
         }
         if let Some(k) = &self.metrics_key {
             if k.chars().count() < crate::auth::MIN_KEY_LEN {

@@ -17,4 +17,5 @@ pub mod queue;
 pub mod router;
 pub mod storage;
 pub mod views;
+pub mod webhooks;
 pub mod worker;

@@ -24,6 +24,7 @@ pub const ROUTES: &[(&str, &str)] = &[
     ("GET", "/v1/jobs/{id}/events"),
     ("POST", "/v1/jobs/{id}/cancel"),
     ("POST", "/v1/jobs/{id}/replan"),
+    ("GET", "/v1/jobs/{id}/deliveries"),
 ];
 
 /// Every route: [`ROUTES`], then a download per result of `asbuilt_plan::io::outputs::OUTPUTS`
@@ -80,6 +81,10 @@ pub fn build(state: AppState) -> Router {
         .route("/v1/jobs/{id}/events", get(jobs::events::events))
         .route("/v1/jobs/{id}/cancel", post(jobs::cancel::cancel))
         .route("/v1/jobs/{id}/replan", post(jobs::replan::replan))
+        .route(
+            "/v1/jobs/{id}/deliveries",
+            get(jobs::deliveries::deliveries),
+        )
         // Every result file (`plan.geojson`, ...); `events` is matched first as the fixed path.
         .route("/v1/jobs/{id}/{file}", get(jobs::results::file))
         .fallback(controllers::route_not_found)

@@ -6,7 +6,7 @@ use asbuilt_plan::io::outputs::OUTPUTS;
 use serde::Serialize;
 
 use crate::config::Config;
-use crate::queue::{Job, JobError, JobStatus, UploadInfo};
+use crate::queue::{Delivery, Job, JobError, JobStatus, UploadInfo};
 
 /// A job as the API shows it.
 #[derive(Debug, Serialize)]
@@ -34,6 +34,8 @@ pub struct JobView {
     pub tags: Vec<String>,
     /// For a re-plan: the job whose stored upload it reads; null for a job with its own.
     pub source_job: Option<String>,
+    /// Where the job's end is POSTed (a signed webhook), if anywhere.
+    pub callback_url: Option<String>,
 }
 
 /// Where to find the job's parts.
@@ -93,6 +95,35 @@ impl JobView {
             external_ref: job.meta.external_ref.clone(),
             tags: job.meta.tags.clone(),
             source_job: job.is_replan().then(|| job.input_job.to_string()),
+            callback_url: job.callback_url.clone(),
+        }
+    }
+}
+
+/// One webhook delivery attempt, as `GET /v1/jobs/{id}/deliveries` shows it.
+#[derive(Debug, Serialize)]
+pub struct DeliveryView {
+    pub id: String,
+    pub event: String,
+    pub url: String,
+    pub attempt: u32,
+    pub at: String,
+    pub status: Option<u16>,
+    pub error: Option<String>,
+    pub duration_ms: i64,
+}
+
+impl From<&Delivery> for DeliveryView {
+    fn from(d: &Delivery) -> DeliveryView {
+        DeliveryView {
+            id: d.id.to_string(),
+            event: d.event.clone(),
+            url: d.url.clone(),
+            attempt: d.attempt,
+            at: timestamp(d.at),
+            status: d.status,
+            error: d.error.clone(),
+            duration_ms: d.duration_ms,
         }
     }
 }
@@ -103,6 +134,21 @@ mod tests {
 
     #[test]
     fn timestamps_are_rfc3339_utc() {
+        assert_eq!(
+            DeliveryView::from(&crate::queue::Delivery {
+                id: uuid::Uuid::nil(),
+                job: crate::queue::JobId(uuid::Uuid::nil()),
+                event: "job.failed".into(),
+                url: "https://x/".into(),
+                attempt: 2,
+                at: 0,
+                status: Some(500),
+                error: Some("the receiver answered 500".into()),
+                duration_ms: 7,
+            })
+            .at,
+            "1970-01-01T00:00:00.000Z"
+        );
         assert_eq!(timestamp(0), "1970-01-01T00:00:00.000Z");
         assert_eq!(timestamp(1_700_000_000_123), "2023-11-14T22:13:20.123Z");
     }

@@ -21,3 +21,21 @@ ALTER TABLE jobs ADD COLUMN input_job TEXT;
 CREATE INDEX jobs_input_job ON jobs (input_job) WHERE input_job IS NOT NULL;
 -- Where completion and failure are POSTed (webhooks).
 ALTER TABLE jobs ADD COLUMN callback_url TEXT;
+-- The webhook still owed for a finished job: due then (Unix ms), after so many attempts.
+-- Set at creation when there is a callback URL; cleared once delivered or given up.
+ALTER TABLE jobs ADD COLUMN hook_due INTEGER;
+ALTER TABLE jobs ADD COLUMN hook_attempts INTEGER NOT NULL DEFAULT 0;
+CREATE INDEX jobs_hook_due ON jobs (hook_due) WHERE hook_due IS NOT NULL;
+-- Every webhook delivery attempt, as the API shows it.
+CREATE TABLE webhook_deliveries (
+    id          TEXT PRIMARY KEY NOT NULL,
+    job_id      TEXT NOT NULL,
+    event       TEXT NOT NULL,
+    url         TEXT NOT NULL,
+    attempt     INTEGER NOT NULL,
+    at          INTEGER NOT NULL,
+    status_code INTEGER,
+    error       TEXT,
+    duration_ms INTEGER NOT NULL
+);
+CREATE INDEX webhook_deliveries_job ON webhook_deliveries (job_id, at);

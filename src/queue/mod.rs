@@ -204,6 +204,25 @@ pub struct NewJob {
     pub callback_url: Option<String>,
 }
 
+/// One webhook delivery attempt, as recorded.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Delivery {
+    pub id: uuid::Uuid,
+    pub job: JobId,
+    /// `job.succeeded`, `job.failed` or `job.cancelled`.
+    pub event: String,
+    pub url: String,
+    /// 1 for the first attempt.
+    pub attempt: u32,
+    /// When it was sent, Unix milliseconds.
+    pub at: i64,
+    /// The receiver's HTTP status, when it answered.
+    pub status: Option<u16>,
+    /// Why it failed, when it did (no answer, refused target, non-2xx).
+    pub error: Option<String>,
+    pub duration_ms: i64,
+}
+
 /// What [`JobStore::insert`] did.
 #[derive(Debug, Clone)]
 pub enum Inserted {
@@ -368,6 +387,21 @@ pub trait JobStore: Send + Sync + 'static {
     async fn expired_at(&self, tenant: &str, id: JobId) -> Result<Option<i64>, StoreError>;
     /// Forgets tombstones older than `before_ms` (those jobs then answer "not found").
     async fn forget_expired(&self, before_ms: i64) -> Result<u64, StoreError>;
+    /// Takes up to `limit` finished jobs whose webhook is due, for `lease_ms` (another process
+    /// takes them only after that); each with the attempts made so far.
+    async fn claim_hooks(&self, lease_ms: i64, limit: u32) -> Result<Vec<(Job, u32)>, StoreError>;
+    /// Records that a job's webhook was tried `attempts` times; `next_due` is when to try
+    /// again, `None` once delivered or given up.
+    async fn hook_tried(
+        &self,
+        id: JobId,
+        attempts: u32,
+        next_due: Option<i64>,
+    ) -> Result<(), StoreError>;
+    /// Records one delivery attempt.
+    async fn record_delivery(&self, delivery: &Delivery) -> Result<(), StoreError>;
+    /// A job's delivery attempts, oldest first.
+    async fn deliveries(&self, id: JobId) -> Result<Vec<Delivery>, StoreError>;
     /// Jobs that finished before `before_ms` (for retention), at most `limit`.
     async fn finished_before(&self, before_ms: i64, limit: u32) -> Result<Vec<JobId>, StoreError>;
     /// How many jobs are in each status (every status, zeros included).

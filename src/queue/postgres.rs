@@ -22,8 +22,8 @@ use tokio::sync::Notify;
 
 use super::sqlite::{is_unique_violation, json_text};
 use super::{
-    now_ms, Beat, Expired, Heartbeat, Idempotency, Inserted, Job, JobError, JobId, JobMeta,
-    JobOutcome, JobStatus, JobStore, ListQuery, NewJob, StoreError, WORKER_LOST,
+    now_ms, Beat, Delivery, Expired, Heartbeat, Idempotency, Inserted, Job, JobError, JobId,
+    JobMeta, JobOutcome, JobStatus, JobStore, ListQuery, NewJob, StoreError, WORKER_LOST,
 };
 
 /// The PostgreSQL migrations, in order: (version, description, SQL).
@@ -79,9 +79,9 @@ const COLUMNS: &str = "id::text AS id, tenant, status, stage, progress, params::
 /// The columns a new job sets, and their values as bound by [`PgJobStore::bind_new`].
 const NEW_COLUMNS: &str = "id, tenant, status, progress, params, upload, attempts, \
      max_attempts, created_at, updated_at, external_ref, tags, idempotency_key, request_hash, \
-     input_job, callback_url";
+     input_job, callback_url, hook_due";
 const NEW_VALUES: &str = "$1::uuid, $2, 'queued', 0, $3::jsonb, $4::jsonb, 0, $5, $6, $6, $7, \
-     $8::jsonb, $9, $10, $11::uuid, $12";
+     $8::jsonb, $9, $10, $11::uuid, $12, $13";
 
 /// Job state in a PostgreSQL database (one schema of it).
 #[derive(Clone)]
@@ -208,7 +208,7 @@ impl PgJobStore {
         })
     }
 
-    /// Binds a new job's values ($1 to $12 of [`NEW_VALUES`]).
+    /// Binds a new job's values ($1 to $13 of [`NEW_VALUES`]).
     fn bind_new<'q>(
         query: sqlx::query::Query<'q, sqlx::Postgres, sqlx::postgres::PgArguments>,
         job: &NewJob,
@@ -227,7 +227,27 @@ impl PgJobStore {
             .bind(job.idempotency.as_ref().map(|i| i.key.clone()))
             .bind(job.idempotency.as_ref().map(|i| i.request_hash.clone()))
             .bind(job.replan_of.map(|(_, input)| input.to_string()))
-            .bind(job.callback_url.clone()))
+            .bind(job.callback_url.clone())
+            // A job with a callback owes one once it finishes.
+            .bind(job.callback_url.as_ref().map(|_| 0i64)))
+    }
+
+    fn row_to_delivery(row: &PgRow) -> Result<Delivery, StoreError> {
+        let id: String = row.try_get("id")?;
+        let job: String = row.try_get("job_id")?;
+        Ok(Delivery {
+            id: uuid::Uuid::parse_str(&id).map_err(|e| StoreError(e.to_string()))?,
+            job: JobId::from_str(&job).map_err(|e| StoreError(e.to_string()))?,
+            event: row.try_get("event")?,
+            url: row.try_get("url")?,
+            attempt: row.try_get::<i32, _>("attempt")? as u32,
+            at: row.try_get("at")?,
+            status: row
+                .try_get::<Option<i32>, _>("status_code")?
+                .map(|s| s as u16),
+            error: row.try_get("error")?,
+            duration_ms: row.try_get("duration_ms")?,
+        })
     }
 
     fn ids(rows: &[PgRow]) -> Result<Vec<JobId>, StoreError> {
@@ -630,10 +650,16 @@ impl JobStore for PgJobStore {
     }
 
     async fn delete(&self, id: JobId) -> Result<bool, StoreError> {
+        let mut tx = self.pool.begin().await?;
+        sqlx::query("DELETE FROM webhook_deliveries WHERE job_id = $1::uuid")
+            .bind(id.to_string())
+            .execute(&mut *tx)
+            .await?;
         let done = sqlx::query("DELETE FROM jobs WHERE id = $1::uuid")
             .bind(id.to_string())
-            .execute(&self.pool)
+            .execute(&mut *tx)
             .await?;
+        tx.commit().await?;
         Ok(done.rows_affected() == 1)
     }
 
@@ -648,6 +674,10 @@ impl JobStore for PgJobStore {
         .bind(id.to_string())
         .execute(&mut *tx)
         .await?;
+        sqlx::query("DELETE FROM webhook_deliveries WHERE job_id = $1::uuid")
+            .bind(id.to_string())
+            .execute(&mut *tx)
+            .await?;
         let done = sqlx::query("DELETE FROM jobs WHERE id = $1::uuid")
             .bind(id.to_string())
             .execute(&mut *tx)
@@ -673,6 +703,77 @@ impl JobStore for PgJobStore {
             .execute(&self.pool)
             .await?;
         Ok(done.rows_affected())
+    }
+
+    async fn claim_hooks(&self, lease_ms: i64, limit: u32) -> Result<Vec<(Job, u32)>, StoreError> {
+        let now = now_ms();
+        // SKIP LOCKED: two processes never take the same webhook.
+        let sql = format!(
+            "UPDATE jobs SET hook_due = $1 WHERE id IN (SELECT id FROM jobs \
+             WHERE hook_due IS NOT NULL AND hook_due <= $2 \
+             AND status IN ('succeeded', 'failed', 'cancelled') ORDER BY hook_due LIMIT $3 \
+             FOR UPDATE SKIP LOCKED) RETURNING {COLUMNS}, hook_attempts"
+        );
+        let rows = sqlx::query(&sql)
+            .bind(now + lease_ms)
+            .bind(now)
+            .bind(limit as i64)
+            .fetch_all(&self.pool)
+            .await?;
+        rows.iter()
+            .map(|r| {
+                Ok((
+                    Self::row_to_job(r)?,
+                    r.try_get::<i32, _>("hook_attempts")? as u32,
+                ))
+            })
+            .collect()
+    }
+
+    async fn hook_tried(
+        &self,
+        id: JobId,
+        attempts: u32,
+        next_due: Option<i64>,
+    ) -> Result<(), StoreError> {
+        sqlx::query("UPDATE jobs SET hook_attempts = $1, hook_due = $2 WHERE id = $3::uuid")
+            .bind(attempts as i32)
+            .bind(next_due)
+            .bind(id.to_string())
+            .execute(&self.pool)
+            .await?;
+        Ok(())
+    }
+
+    async fn record_delivery(&self, d: &Delivery) -> Result<(), StoreError> {
+        sqlx::query(
+            "INSERT INTO webhook_deliveries (id, job_id, event, url, attempt, at, status_code, \
+             error, duration_ms) VALUES ($1::uuid, $2::uuid, $3, $4, $5, $6, $7, $8, $9)",
+        )
+        .bind(d.id.to_string())
+        .bind(d.job.to_string())
+        .bind(&d.event)
+        .bind(&d.url)
+        .bind(d.attempt as i32)
+        .bind(d.at)
+        .bind(d.status.map(i32::from))
+        .bind(&d.error)
+        .bind(d.duration_ms)
+        .execute(&self.pool)
+        .await?;
+        Ok(())
+    }
+
+    async fn deliveries(&self, id: JobId) -> Result<Vec<Delivery>, StoreError> {
+        let rows = sqlx::query(
+            "SELECT id::text AS id, job_id::text AS job_id, event, url, attempt, at, \
+             status_code, error, duration_ms \
+             FROM webhook_deliveries WHERE job_id = $1::uuid ORDER BY at, attempt",
+        )
+        .bind(id.to_string())
+        .fetch_all(&self.pool)
+        .await?;
+        rows.iter().map(Self::row_to_delivery).collect()
     }
 
     async fn finished_before(&self, before_ms: i64, limit: u32) -> Result<Vec<JobId>, StoreError> {

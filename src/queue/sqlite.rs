@@ -16,8 +16,8 @@ use sqlx::sqlite::{
 use sqlx::Row;
 
 use super::{
-    now_ms, Beat, Expired, Heartbeat, Idempotency, Inserted, Job, JobError, JobId, JobMeta,
-    JobOutcome, JobStatus, JobStore, ListQuery, NewJob, StoreError, WORKER_LOST,
+    now_ms, Beat, Delivery, Expired, Heartbeat, Idempotency, Inserted, Job, JobError, JobId,
+    JobMeta, JobOutcome, JobStatus, JobStore, ListQuery, NewJob, StoreError, WORKER_LOST,
 };
 
 /// The SQLite migrations, in order: (version, description, SQL).
@@ -75,8 +75,8 @@ const COLUMNS: &str = "id, tenant, status, stage, progress, params, upload, inpu
 /// The columns a new job sets, in the order [`SqliteJobStore::bind_new`] binds them.
 const NEW_COLUMNS: &str = "id, tenant, status, progress, params, upload, attempts, max_attempts, \
      created_at, updated_at, external_ref, tags, idempotency_key, request_hash, input_job, \
-     callback_url";
-const NEW_VALUES: &str = "?, ?, 'queued', 0, ?, ?, 0, ?, ?, ?, ?, ?, ?, ?, ?, ?";
+     callback_url, hook_due";
+const NEW_VALUES: &str = "?, ?, 'queued', 0, ?, ?, 0, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?";
 
 impl SqliteJobStore {
     /// Opens (creating if needed) the database file at `path`.
@@ -184,7 +184,27 @@ impl SqliteJobStore {
             .bind(job.idempotency.as_ref().map(|i| i.key.clone()))
             .bind(job.idempotency.as_ref().map(|i| i.request_hash.clone()))
             .bind(job.replan_of.map(|(_, input)| input.to_string()))
-            .bind(job.callback_url.clone()))
+            .bind(job.callback_url.clone())
+            // A job with a callback owes one once it finishes.
+            .bind(job.callback_url.as_ref().map(|_| 0i64)))
+    }
+
+    fn row_to_delivery(row: &SqliteRow) -> Result<Delivery, StoreError> {
+        let id: String = row.try_get("id")?;
+        let job: String = row.try_get("job_id")?;
+        Ok(Delivery {
+            id: uuid::Uuid::parse_str(&id).map_err(|e| StoreError(e.to_string()))?,
+            job: JobId::from_str(&job).map_err(|e| StoreError(e.to_string()))?,
+            event: row.try_get("event")?,
+            url: row.try_get("url")?,
+            attempt: row.try_get::<i64, _>("attempt")? as u32,
+            at: row.try_get("at")?,
+            status: row
+                .try_get::<Option<i64>, _>("status_code")?
+                .map(|s| s as u16),
+            error: row.try_get("error")?,
+            duration_ms: row.try_get("duration_ms")?,
+        })
     }
 }
 
@@ -532,10 +552,16 @@ impl JobStore for SqliteJobStore {
     }
 
     async fn delete(&self, id: JobId) -> Result<bool, StoreError> {
+        let mut tx = self.pool.begin().await?;
+        sqlx::query("DELETE FROM webhook_deliveries WHERE job_id = ?")
+            .bind(id.to_string())
+            .execute(&mut *tx)
+            .await?;
         let done = sqlx::query("DELETE FROM jobs WHERE id = ?")
             .bind(id.to_string())
-            .execute(&self.pool)
+            .execute(&mut *tx)
             .await?;
+        tx.commit().await?;
         Ok(done.rows_affected() == 1)
     }
 
@@ -549,6 +575,10 @@ impl JobStore for SqliteJobStore {
         .bind(id.to_string())
         .execute(&mut *tx)
         .await?;
+        sqlx::query("DELETE FROM webhook_deliveries WHERE job_id = ?")
+            .bind(id.to_string())
+            .execute(&mut *tx)
+            .await?;
         let done = sqlx::query("DELETE FROM jobs WHERE id = ?")
             .bind(id.to_string())
             .execute(&mut *tx)
@@ -573,6 +603,75 @@ impl JobStore for SqliteJobStore {
             .execute(&self.pool)
             .await?;
         Ok(done.rows_affected())
+    }
+
+    async fn claim_hooks(&self, lease_ms: i64, limit: u32) -> Result<Vec<(Job, u32)>, StoreError> {
+        let now = now_ms();
+        let sql = format!(
+            "UPDATE jobs SET hook_due = ? WHERE id IN (SELECT id FROM jobs \
+             WHERE hook_due IS NOT NULL AND hook_due <= ? \
+             AND status IN ('succeeded', 'failed', 'cancelled') ORDER BY hook_due LIMIT ?) \
+             RETURNING {COLUMNS}, hook_attempts"
+        );
+        let rows = sqlx::query(&sql)
+            .bind(now + lease_ms)
+            .bind(now)
+            .bind(limit as i64)
+            .fetch_all(&self.pool)
+            .await?;
+        rows.iter()
+            .map(|r| {
+                Ok((
+                    Self::row_to_job(r)?,
+                    r.try_get::<i64, _>("hook_attempts")? as u32,
+                ))
+            })
+            .collect()
+    }
+
+    async fn hook_tried(
+        &self,
+        id: JobId,
+        attempts: u32,
+        next_due: Option<i64>,
+    ) -> Result<(), StoreError> {
+        sqlx::query("UPDATE jobs SET hook_attempts = ?, hook_due = ? WHERE id = ?")
+            .bind(attempts as i64)
+            .bind(next_due)
+            .bind(id.to_string())
+            .execute(&self.pool)
+            .await?;
+        Ok(())
+    }
+
+    async fn record_delivery(&self, d: &Delivery) -> Result<(), StoreError> {
+        sqlx::query(
+            "INSERT INTO webhook_deliveries (id, job_id, event, url, attempt, at, status_code, \
+             error, duration_ms) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+        )
+        .bind(d.id.to_string())
+        .bind(d.job.to_string())
+        .bind(&d.event)
+        .bind(&d.url)
+        .bind(d.attempt as i64)
+        .bind(d.at)
+        .bind(d.status.map(i64::from))
+        .bind(&d.error)
+        .bind(d.duration_ms)
+        .execute(&self.pool)
+        .await?;
+        Ok(())
+    }
+
+    async fn deliveries(&self, id: JobId) -> Result<Vec<Delivery>, StoreError> {
+        let rows = sqlx::query(
+            "SELECT id, job_id, event, url, attempt, at, status_code, error, duration_ms \
+             FROM webhook_deliveries WHERE job_id = ? ORDER BY at, attempt",
+        )
+        .bind(id.to_string())
+        .fetch_all(&self.pool)
+        .await?;
+        rows.iter().map(Self::row_to_delivery).collect()
     }
 
     async fn finished_before(&self, before_ms: i64, limit: u32) -> Result<Vec<JobId>, StoreError> {

@@ -108,6 +108,7 @@ on_both_backends!(
     idempotency_keys_return_the_first_job,
     metadata_is_kept_shown_and_filtered,
     replans_reuse_the_upload_and_share_it_safely,
+    webhooks_are_signed_retried_and_recorded,
 );
 
 /// Every example in the document matches its schema, and every operation of the job API has
@@ -728,5 +729,306 @@ async fn replans_reuse_the_upload_and_share_it_safely(env: &Env) {
         (status, json(&again)["id"].clone()),
         (200, json(&body)["id"].clone())
     );
+    s.stop().await;
+}
+
+/// A webhook receiver: records every request; `/fail-once/...` answers 500 to its first
+/// request, `/down/...` always 503, anything else 204.
+struct Receiver {
+    base: String,
+    got: Arc<std::sync::Mutex<Vec<Received>>>,
+}
+
+#[derive(Clone, Debug)]
+struct Received {
+    path: String,
+    headers: axum::http::HeaderMap,
+    body: bytes::Bytes,
+}
+
+impl Receiver {
+    async fn start() -> Receiver {
+        use axum::http::StatusCode;
+        let got: Arc<std::sync::Mutex<Vec<Received>>> = Default::default();
+        let keep = got.clone();
+        let app = axum::Router::new().fallback(
+            move |uri: axum::http::Uri, headers: axum::http::HeaderMap, body: bytes::Bytes| {
+                let keep = keep.clone();
+                async move {
+                    let path = uri.path().to_string();
+                    let mut all = keep.lock().unwrap();
+                    let before = all.iter().filter(|r| r.path == path).count();
+                    all.push(Received {
+                        path: path.clone(),
+                        headers,
+                        body,
+                    });
+                    if path.starts_with("/down/") {
+                        StatusCode::SERVICE_UNAVAILABLE
+                    } else if path.starts_with("/fail-once/") && before == 0 {
+                        StatusCode::INTERNAL_SERVER_ERROR
+                    } else {
+                        StatusCode::NO_CONTENT
+                    }
+                }
+            },
+        );
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let base = format!("http://{}", listener.local_addr().unwrap());
+        tokio::spawn(async move { axum::serve(listener, app).await.unwrap() });
+        Receiver { base, got }
+    }
+
+    fn at(&self, path: &str) -> Vec<Received> {
+        self.got
+            .lock()
+            .unwrap()
+            .iter()
+            .filter(|r| r.path == path)
+            .cloned()
+            .collect()
+    }
+
+    async fn wait(&self, path: &str, n: usize) -> Vec<Received> {
+        let end = Instant::now() + Duration::from_secs(20);
+        loop {
+            let got = self.at(path);
+            if got.len() >= n {
+                return got;
+            }
+            assert!(
+                Instant::now() < end,
+                "{path}: {} of {n} requests",
+                got.len()
+            );
+            tokio::time::sleep(Duration::from_millis(25)).await;
+        }
+    }
+}
+
+const SECRET: &str = "whsec-acme-0123456789";
+
+/// Checks a delivery's signature with Python's `hmac` (an implementation independent of the
+/// server's), and that it is fresh; returns the body as JSON.
+fn verify(r: &Received) -> Value {
+    let header = r.headers["asbuilt-signature"].to_str().unwrap().to_string();
+    let (t, v1) = header
+        .split_once(',')
+        .and_then(|(t, v)| Some((t.strip_prefix("t=")?, v.strip_prefix("v1=")?)))
+        .unwrap_or_else(|| panic!("signature header {header}"));
+    let t: i64 = t.parse().unwrap();
+    assert!(
+        (chrono::Utc::now().timestamp() - t).abs() < 120,
+        "stale t={t}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("body");
+    std::fs::write(&file, &r.body).unwrap();
+    let script = "import hmac, hashlib, sys\n\
+        body = open(sys.argv[3], 'rb').read()\n\
+        mac = hmac.new(sys.argv[1].encode(), sys.argv[2].encode() + b'.' + body, hashlib.sha256)\n\
+        print(mac.hexdigest())";
+    let out = std::process::Command::new("python3")
+        .args(["-c", script, SECRET, &t.to_string()])
+        .arg(&file)
+        .output()
+        .expect("python3 runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let expected = String::from_utf8(out.stdout).unwrap().trim().to_string();
+    assert_eq!(v1, expected, "the signature does not verify");
+    // A tampered body does not verify: the check can fail.
+    let mut forged = r.body.to_vec();
+    forged.push(b' ');
+    assert_ne!(asbuilt::webhooks::sign::digest(SECRET, t, &forged), v1);
+    assert_eq!(r.headers["content-type"], "application/json");
+    serde_json::from_slice(&r.body).unwrap()
+}
+
+async fn webhooks_are_signed_retried_and_recorded(env: &Env) {
+    let rx = Receiver::start().await;
+    let mut s = env
+        .start(1, |c| {
+            c.api_keys = vec![
+                "acme:acme-secret-key-0001".into(),
+                "bolt:bolt-secret-key-0002".into(),
+            ];
+            c.webhook_secrets = vec![format!("acme:{SECRET}")];
+            c.webhook_urls = vec![format!("acme:{}/default/hook", rx.base)];
+            c.webhook_allow = vec!["127.0.0.1/32".into()];
+            c.webhook_backoff_ms = 150;
+            c.webhook_attempts = 3;
+        })
+        .await;
+    let mut contract = Contract::load();
+    let cb = |path: &str| {
+        format!("{}{path}", rx.base)
+            .replace(':', "%3A")
+            .replace('/', "%2F")
+    };
+
+    // Succeeded, after one failed attempt: two signed POSTs, both recorded.
+    let path = format!("/v1/jobs?callback_url={}", cb("/fail-once/a"));
+    let (status, _, body) = call(&mut contract, "POST", &path, s.post(&path).body(xyz(5))).await;
+    assert_eq!(
+        status,
+        202,
+        "{}: {}",
+        env.backend,
+        String::from_utf8_lossy(&body)
+    );
+    let job = json(&body);
+    assert_eq!(job["callback_url"], format!("{}/fail-once/a", rx.base));
+    let id = job["id"].as_str().unwrap().to_string();
+    let got = rx.wait("/fail-once/a", 2).await;
+    for r in &got {
+        let event = verify(r);
+        assert_eq!(event["event"], "job.succeeded");
+        assert_eq!(event["job"]["id"], id.as_str());
+        assert_eq!(event["job"]["status"], "succeeded");
+        contract.job(&event["job"]);
+        assert_eq!(r.headers["asbuilt-event"], "job.succeeded");
+        assert_eq!(r.headers["asbuilt-job"], id.as_str());
+    }
+    let dpath = format!("/v1/jobs/{id}/deliveries");
+    let end = Instant::now() + Duration::from_secs(10);
+    let deliveries = loop {
+        let (status, _, body) = call(&mut contract, "GET", &dpath, s.get(&dpath)).await;
+        assert_eq!(status, 200);
+        let d = json(&body);
+        if d["deliveries"].as_array().unwrap().len() == 2 {
+            break d;
+        }
+        assert!(Instant::now() < end, "{d}");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    };
+    let list = deliveries["deliveries"].as_array().unwrap();
+    assert_eq!(
+        (list[0]["attempt"].clone(), list[0]["status"].clone()),
+        (1.into(), 500.into())
+    );
+    assert!(list[0]["error"].as_str().unwrap().contains("500"));
+    assert_eq!(
+        (list[1]["attempt"].clone(), list[1]["status"].clone()),
+        (2.into(), 204.into())
+    );
+    assert!(list[1]["error"].is_null());
+    let gap = ms(&list[1]["at"]) - ms(&list[0]["at"]);
+    assert!(gap >= 150, "the retry waited {gap} ms");
+
+    // Failed and cancelled jobs are delivered too; the tenant's default URL applies.
+    let path = format!("/v1/jobs?callback_url={}", cb("/ok/failed"));
+    let failing = s
+        .post(&path)
+        .body(format!("{}#fail:no_stories\n", xyz(3)))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(failing.status(), 202);
+    let event = verify(&rx.wait("/ok/failed", 1).await[0]);
+    assert_eq!(
+        (
+            event["event"].clone(),
+            event["job"]["error"]["code"].clone()
+        ),
+        ("job.failed".into(), "no_stories".into())
+    );
+    let mut slow = s.post("/v1/jobs").body(xyz(3));
+    slow = slow.query(&[("tag", "slow")]);
+    let queued: Value = slow.send().await.unwrap().json().await.unwrap();
+    assert_eq!(queued["callback_url"], format!("{}/default/hook", rx.base));
+    let qid = queued["id"].as_str().unwrap();
+    let cancel = s
+        .post(&format!("/v1/jobs/{qid}/cancel"))
+        .send()
+        .await
+        .unwrap();
+    let cancelled: Value = cancel.json().await.unwrap();
+    // Cancelled, or finished first (the fake pipeline is quick): either way, one event.
+    let event = verify(&rx.wait("/default/hook", 1).await[0]);
+    assert_eq!(event["job"]["id"], qid);
+    let expected = if cancelled["status"] == "cancelled" {
+        "job.cancelled"
+    } else {
+        "job.succeeded"
+    };
+    assert_eq!(event["event"], expected, "{cancelled}");
+
+    // A receiver that stays down gets `webhook_attempts` attempts, then no more.
+    let path = format!("/v1/jobs?callback_url={}", cb("/down/x"));
+    let down: Value = s
+        .post(&path)
+        .body(xyz(3))
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    rx.wait("/down/x", 3).await;
+    tokio::time::sleep(Duration::from_millis(1500)).await;
+    assert_eq!(rx.at("/down/x").len(), 3);
+    let dpath = format!("/v1/jobs/{}/deliveries", down["id"].as_str().unwrap());
+    let d: Value = s.get(&dpath).send().await.unwrap().json().await.unwrap();
+    let statuses: Vec<Value> = d["deliveries"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x["status"].clone())
+        .collect();
+    assert_eq!(statuses, vec![Value::from(503); 3]);
+
+    // Refused before anything is stored: targets off the allow-list, other schemes, and a
+    // tenant with no secret to sign with.
+    for (url, why) in [
+        ("http://10.0.0.1/hook", "allow-list"),
+        ("http://127.0.0.2:9/hook", "allow-list"),
+        ("ftp://127.0.0.1/hook", "http"),
+        ("not a url", "URL"),
+    ] {
+        let path = format!(
+            "/v1/jobs?callback_url={}",
+            url.replace(':', "%3A")
+                .replace('/', "%2F")
+                .replace(' ', "%20")
+        );
+        let (status, _, body) =
+            call(&mut contract, "POST", &path, s.post(&path).body(xyz(3))).await;
+        let e = json(&body);
+        assert_eq!(
+            (status, e["error"]["param"].clone()),
+            (422, "callback_url".into()),
+            "{url}: {e}"
+        );
+        assert!(
+            e["error"]["message"].as_str().unwrap().contains(why),
+            "{url}: {e}"
+        );
+    }
+    let path = format!("/v1/jobs?callback_url={}", cb("/ok/bolt"));
+    let bolt = s
+        .client
+        .post(s.url(&path))
+        .bearer_auth("bolt-secret-key-0002")
+        .body(xyz(3));
+    let (status, _, body) = call(&mut contract, "POST", &path, bolt).await;
+    assert_eq!(status, 422);
+    assert!(json(&body)["error"]["message"]
+        .as_str()
+        .unwrap()
+        .contains("secret"));
+    s.stop().await;
+
+    // By default only public addresses may be called back: loopback is refused.
+    let mut s = env
+        .start(1, |c| c.webhook_secrets = vec![format!("dev:{SECRET}")])
+        .await;
+    let path = format!("/v1/jobs?callback_url={}", cb("/ok/default-deny"));
+    let res = s.post(&path).body(xyz(3)).send().await.unwrap();
+    let e = expect_error(res, 422, "invalid_parameter").await;
+    assert_eq!(e["error"]["param"], "callback_url");
     s.stop().await;
 }

@@ -110,6 +110,7 @@ async fn accept(
     // The query (parameters, metadata) and the key are checked before a byte is stored.
     let options = Options::parse(pairs)?;
     let key = submit::idempotency_key(request.headers())?;
+    let callback_url = submit::callback(state, &tenant, options.callback_url.clone()).await?;
     let prior = submit::prior(state, &tenant, key.as_deref()).await?;
     // A tenant at its cap of queued jobs is told before it uploads (and again, atomically,
     // when the job is created); a retry of a job already made is not a new job.
@@ -169,7 +170,7 @@ async fn accept(
             cloud: stored.sha256.clone(),
             sidecar: sidecar.zip(received.sidecar_sha256.clone()),
             meta: &options.meta,
-            callback_url: None,
+            callback_url: callback_url.as_deref(),
         }
         .hash(),
     });
@@ -188,7 +189,7 @@ async fn accept(
         meta: options.meta,
         idempotency,
         replan_of: None,
-        callback_url: None,
+        callback_url,
     };
     submit::record(state, job, prior).await
 }

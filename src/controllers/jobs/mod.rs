@@ -3,6 +3,7 @@
 pub mod cancel;
 pub mod create;
 pub mod delete;
+pub mod deliveries;
 mod drain;
 pub mod events;
 pub mod list;

@@ -42,6 +42,7 @@ pub async fn replan(
         ));
     }
     let key = submit::idempotency_key(request.headers())?;
+    let callback_url = submit::callback(&state, &tenant, options.callback_url.clone()).await?;
     let prior = submit::prior(&state, &tenant, key.as_deref()).await?;
     let cap = state.config.max_queued;
     if prior.is_none() && cap > 0 && state.store.queued_count(&tenant).await? >= cap as u64 {
@@ -105,7 +106,7 @@ pub async fn replan(
             cloud: format!("replan:{}", source.id),
             sidecar: sidecar.zip(received.sidecar_sha256.clone()),
             meta: &options.meta,
-            callback_url: None,
+            callback_url: callback_url.as_deref(),
         }
         .hash(),
     });
@@ -120,7 +121,7 @@ pub async fn replan(
         meta: options.meta,
         idempotency,
         replan_of: Some((source.id, source.input_job)),
-        callback_url: None,
+        callback_url,
     };
     submit::record(&state, job, prior).await
 }

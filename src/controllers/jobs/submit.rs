@@ -32,6 +32,8 @@ pub struct Options {
     /// `section.name=value` parameter overrides.
     pub overrides: Vec<String>,
     pub meta: JobMeta,
+    /// `callback_url` as given; checked by [`callback`].
+    pub callback_url: Option<String>,
 }
 
 impl Options {
@@ -48,6 +50,12 @@ impl Options {
                     o.meta.external_ref = Some(check_external_ref(&value)?);
                 }
                 "tag" => add_tag(&mut o.meta.tags, &value)?,
+                "callback_url" => {
+                    if o.callback_url.is_some() {
+                        return Err(ApiError::param("callback_url", "give one `callback_url`"));
+                    }
+                    o.callback_url = Some(value);
+                }
                 _ => {
                     Params::check_override(&format!("{key}={value}"))
                         .map_err(|e| super::create::params_error(&e, Some(key.as_str())))?;
@@ -94,6 +102,24 @@ pub fn add_tag(tags: &mut Vec<String>, value: &str) -> Result<(), ApiError> {
         tags.push(value.to_string());
     }
     Ok(())
+}
+
+/// The job's callback URL: the one given, else the tenant's default; checked against the
+/// tenant's secret and the allow-list before anything is stored.
+pub async fn callback(
+    state: &AppState,
+    tenant: &str,
+    given: Option<String>,
+) -> Result<Option<String>, ApiError> {
+    let Some(raw) = given.or_else(|| state.webhooks.default_url(tenant).map(str::to_string)) else {
+        return Ok(None);
+    };
+    state
+        .webhooks
+        .check_callback(tenant, &raw)
+        .await
+        .map(Some)
+        .map_err(|e| ApiError::param("callback_url", e))
 }
 
 /// The request's `Idempotency-Key`: 1 to 255 visible ASCII characters.
