@@ -88,6 +88,9 @@ pub struct Config {
     pub webhook_attempts: u32,
     /// The wait after a failed attempt, milliseconds; it doubles after each (at most an hour).
     pub webhook_backoff_ms: u64,
+    /// Origins whose browser pages may call the API (CORS): `https://host[:port]` each, or
+    /// `*` for any. None: no CORS headers, so browsers allow only this server's own page.
+    pub cors_origins: Vec<String>,
     /// Testing aid: replace the pipeline with a synthetic one taking this many ms per stage.
     #[serde(skip)]
     pub fake_pipeline_ms: Option<u64>,
@@ -137,6 +140,7 @@ impl Default for Config {
             webhook_allow: vec!["public".into()],
             webhook_attempts: 8,
             webhook_backoff_ms: 10_000,
+            cors_origins: vec![],
             fake_pipeline_ms: None,
             fake_pipeline_spin: false,
             serve_api: true,
@@ -268,6 +272,14 @@ pub struct ConfigArgs {
     /// Wait after a failed webhook attempt, ms, doubling each time [default: 10000].
     #[arg(long, env = "ASBUILT_WEBHOOK_BACKOFF_MS", value_name = "MS")]
     pub webhook_backoff_ms: Option<u64>,
+    /// Origins whose pages may call the API (CORS), comma-separated or repeated; `*` for any.
+    #[arg(
+        long = "cors-origin",
+        env = "ASBUILT_CORS_ORIGINS",
+        value_name = "ORIGIN",
+        value_delimiter = ','
+    )]
+    pub cors_origins: Vec<String>,
     /// Testing aid: a synthetic pipeline taking MS per stage instead of the real one.
     #[arg(long, env = "ASBUILT_FAKE_PIPELINE_MS", value_name = "MS", hide = true)]
     pub fake_pipeline_ms: Option<u64>,
@@ -324,6 +336,7 @@ impl ConfigArgs {
             (&self.webhook_secrets, &mut c.webhook_secrets),
             (&self.webhook_urls, &mut c.webhook_urls),
             (&self.webhook_allow, &mut c.webhook_allow),
+            (&self.cors_origins, &mut c.cors_origins),
         ] {
             if !flag.is_empty() {
                 field.clone_from(flag);
@@ -380,6 +393,7 @@ impl Config {
             crate::auth::read_keys_file(path).map_err(|e| anyhow::anyhow!(e))?;
         }
         crate::webhooks::Settings::from_config(self).map_err(|e| anyhow::anyhow!(e))?;
+        crate::router::cors(&self.cors_origins).map_err(|e| anyhow::anyhow!(e))?;
         if self.webhook_attempts == 0 {
             bail!("webhook_attempts must be at least 1");
         }

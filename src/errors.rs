@@ -22,6 +22,7 @@ pub enum Code {
     JobFinished,
     PayloadTooLarge,
     UriTooLong,
+    RangeNotSatisfiable,
     UnsupportedFormat,
     MissingCloud,
     InvalidParameter,
@@ -35,7 +36,7 @@ pub enum Code {
 }
 
 /// Every code, in the order the OpenAPI document lists them.
-pub const CODES: [Code; 22] = [
+pub const CODES: [Code; 23] = [
     Code::InvalidRequest,
     Code::InvalidMultipart,
     Code::Unauthorized,
@@ -48,6 +49,7 @@ pub const CODES: [Code; 22] = [
     Code::JobFinished,
     Code::PayloadTooLarge,
     Code::UriTooLong,
+    Code::RangeNotSatisfiable,
     Code::UnsupportedFormat,
     Code::MissingCloud,
     Code::InvalidParameter,
@@ -126,6 +128,11 @@ impl Code {
                 "The upload or one of its parts is over the size limit; nothing was kept.",
             ),
             Code::UriTooLong => ("uri_too_long", 414, "The request line is too long."),
+            Code::RangeNotSatisfiable => (
+                "range_not_satisfiable",
+                416,
+                "The `Range` asked for starts past the end of the result.",
+            ),
             Code::UnsupportedFormat => (
                 "unsupported_format",
                 415,

@@ -1,8 +1,10 @@
 //! The HTTP routes. [`routes`] lists them for the OpenAPI test; [`build`] wires them.
 
 use axum::extract::DefaultBodyLimit;
+use axum::http::{header, HeaderName, HeaderValue, Method};
 use axum::routing::{get, post};
 use axum::Router;
+use tower_http::cors::{AllowOrigin, CorsLayer};
 use tower_http::trace::TraceLayer;
 
 use crate::app::AppState;
@@ -58,9 +60,60 @@ pub fn metrics_only(state: AppState) -> Router {
         .with_state(state)
 }
 
+/// The CORS layer for `origins` (`--cors-origin`); `None` when none are set. An origin is
+/// `scheme://host[:port]`, or `*` for any (then without credentials, as browsers require).
+pub fn cors(origins: &[String]) -> Result<Option<CorsLayer>, String> {
+    if origins.is_empty() {
+        return Ok(None);
+    }
+    let allow = if origins.iter().any(|o| o == "*") {
+        AllowOrigin::any()
+    } else {
+        let mut list = vec![];
+        for o in origins {
+            let ok = (o.starts_with("https://") || o.starts_with("http://"))
+                && !o.trim_end_matches('/').contains(['?', '#'])
+                && o.split("://")
+                    .nth(1)
+                    .is_some_and(|h| !h.is_empty() && !h.contains('/'));
+            if !ok {
+                return Err(format!(
+                    "cors_origins: `{o}` is not an origin such as https://app.example.com or *"
+                ));
+            }
+            list.push(HeaderValue::from_str(o).map_err(|e| format!("cors_origins: {e}"))?);
+        }
+        AllowOrigin::list(list)
+    };
+    let expose = [
+        header::LOCATION,
+        header::ETAG,
+        header::CONTENT_RANGE,
+        header::RETRY_AFTER,
+        HeaderName::from_static("idempotent-replayed"),
+    ];
+    Ok(Some(
+        CorsLayer::new()
+            .allow_origin(allow)
+            .allow_methods([Method::GET, Method::POST, Method::DELETE])
+            .allow_headers([
+                header::AUTHORIZATION,
+                header::CONTENT_TYPE,
+                header::RANGE,
+                header::IF_NONE_MATCH,
+                header::IF_RANGE,
+                HeaderName::from_static("idempotency-key"),
+                HeaderName::from_static("last-event-id"),
+            ])
+            .expose_headers(expose)
+            .max_age(std::time::Duration::from_secs(3600)),
+    ))
+}
+
 /// The application's router.
 pub fn build(state: AppState) -> Router {
-    Router::new()
+    let cors = cors(&state.config.cors_origins).ok().flatten();
+    let router = Router::new()
         .route("/", get(controllers::page::index))
         .route("/healthz", get(controllers::health::healthz))
         .route("/readyz", get(controllers::health::readyz))
@@ -90,5 +143,9 @@ pub fn build(state: AppState) -> Router {
         .fallback(controllers::route_not_found)
         .method_not_allowed_fallback(controllers::method_not_allowed)
         .layer(TraceLayer::new_for_http())
-        .with_state(state)
+        .with_state(state);
+    match cors {
+        Some(layer) => router.layer(layer),
+        None => router,
+    }
 }

@@ -71,6 +71,15 @@ pub trait BlobStore: Send + Sync + 'static {
     async fn put(&self, key: &str, bytes: Bytes) -> Result<Stored, BlobError>;
     /// Reads an object as a stream; `None` when absent.
     async fn get(&self, key: &str) -> Result<Option<Blob>, BlobError>;
+    /// Reads bytes `range` of an object (clamped to its end) as a stream, with the object's
+    /// whole size; `None` when absent.
+    async fn get_part(
+        &self,
+        key: &str,
+        range: std::ops::Range<u64>,
+    ) -> Result<Option<(Blob, u64)>, BlobError>;
+    /// An object's size, `None` when absent.
+    async fn size(&self, key: &str) -> Result<Option<u64>, BlobError>;
     /// Copies an object to a local file (the pipeline reads files).
     async fn download(&self, key: &str, to: &Path) -> Result<u64, BlobError>;
     /// The object's own file, when the store is a local directory (saves a copy).
@@ -206,6 +215,38 @@ impl BlobStore for ObjectBlobStore {
                     .boxed();
                 Ok(Some(Blob { size, stream }))
             }
+            Err(object_store::Error::NotFound { .. }) => Ok(None),
+            Err(e) => Err(e.into()),
+        }
+    }
+
+    async fn get_part(
+        &self,
+        key: &str,
+        range: std::ops::Range<u64>,
+    ) -> Result<Option<(Blob, u64)>, BlobError> {
+        let options = object_store::GetOptions {
+            range: Some(object_store::GetRange::Bounded(range)),
+            ..Default::default()
+        };
+        match self.inner.get_opts(&ObjectPath::from(key), options).await {
+            Ok(result) => {
+                let total = result.meta.size;
+                let size = result.range.end - result.range.start;
+                let stream = result
+                    .into_stream()
+                    .map_err(|e| std::io::Error::other(e.to_string()))
+                    .boxed();
+                Ok(Some((Blob { size, stream }, total)))
+            }
+            Err(object_store::Error::NotFound { .. }) => Ok(None),
+            Err(e) => Err(e.into()),
+        }
+    }
+
+    async fn size(&self, key: &str) -> Result<Option<u64>, BlobError> {
+        match self.inner.head(&ObjectPath::from(key)).await {
+            Ok(meta) => Ok(Some(meta.size)),
             Err(object_store::Error::NotFound { .. }) => Ok(None),
             Err(e) => Err(e.into()),
         }

@@ -154,6 +154,18 @@ impl BlobStore for S3BlobStore {
         self.objects.get(key).await
     }
 
+    async fn get_part(
+        &self,
+        key: &str,
+        range: std::ops::Range<u64>,
+    ) -> Result<Option<(Blob, u64)>, BlobError> {
+        self.objects.get_part(key, range).await
+    }
+
+    async fn size(&self, key: &str) -> Result<Option<u64>, BlobError> {
+        self.objects.size(key).await
+    }
+
     async fn download(&self, key: &str, to: &Path) -> Result<u64, BlobError> {
         self.objects.download(key, to).await
     }

@@ -109,6 +109,8 @@ on_both_backends!(
     metadata_is_kept_shown_and_filtered,
     replans_reuse_the_upload_and_share_it_safely,
     webhooks_are_signed_retried_and_recorded,
+    results_revalidate_and_serve_ranges_and_other_origins,
+    events_resume_after_the_last_event_id,
 );
 
 /// Every example in the document matches its schema, and every operation of the job API has
@@ -1030,5 +1032,239 @@ async fn webhooks_are_signed_retried_and_recorded(env: &Env) {
     let res = s.post(&path).body(xyz(3)).send().await.unwrap();
     let e = expect_error(res, 422, "invalid_parameter").await;
     assert_eq!(e["error"]["param"], "callback_url");
+    s.stop().await;
+}
+
+async fn results_revalidate_and_serve_ranges_and_other_origins(env: &Env) {
+    let mut s = env
+        .start(1, |c| {
+            c.cors_origins = vec!["https://portal.example.com".into()]
+        })
+        .await;
+    let mut contract = Contract::load();
+    let id = s.upload(xyz(8)).await["id"].as_str().unwrap().to_string();
+    s.wait_done(&id, Duration::from_secs(20)).await;
+    let path = format!("/v1/jobs/{id}/plan.svg");
+    let (status, headers, whole) = call(&mut contract, "GET", &path, s.get(&path)).await;
+    assert_eq!(status, 200, "{}", env.backend);
+    assert_eq!(headers["accept-ranges"], "bytes");
+    let tag = headers["etag"].to_str().unwrap().to_string();
+    assert!(
+        tag.starts_with('"') && tag.ends_with('"') && tag.len() > 10,
+        "{tag}"
+    );
+    let n = whole.len();
+    assert!(n > 100, "{n}");
+    // The tag is the file's: the other results have others, and it does not change.
+    let dxf = s
+        .get(&format!("/v1/jobs/{id}/plan.dxf"))
+        .send()
+        .await
+        .unwrap();
+    assert_ne!(dxf.headers()["etag"].to_str().unwrap(), tag);
+    let again = s.get(&path).send().await.unwrap();
+    assert_eq!(again.headers()["etag"].to_str().unwrap(), tag);
+    // Revalidation: 304 without a body; another tag gets the file.
+    let (status, headers, body) = call(
+        &mut contract,
+        "GET",
+        &path,
+        s.get(&path).header("If-None-Match", &tag),
+    )
+    .await;
+    assert_eq!((status, body.len()), (304, 0));
+    assert_eq!(headers["etag"].to_str().unwrap(), tag);
+    let list = format!("\"nope\", {tag}");
+    assert_eq!(
+        s.get(&path)
+            .header("If-None-Match", list)
+            .send()
+            .await
+            .unwrap()
+            .status(),
+        304
+    );
+    let stale = s
+        .get(&path)
+        .header("If-None-Match", "\"nope\"")
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(stale.status(), 200);
+    // Ranges: the bytes asked for, exactly.
+    for (range, first, last) in [
+        ("bytes=0-9".to_string(), 0, 9),
+        (format!("bytes={}-", n - 7), n - 7, n - 1),
+        ("bytes=-5".to_string(), n - 5, n - 1),
+        (format!("bytes=10-{}", n + 100), 10, n - 1),
+    ] {
+        let (status, headers, body) = call(
+            &mut contract,
+            "GET",
+            &path,
+            s.get(&path).header("Range", &range),
+        )
+        .await;
+        assert_eq!(status, 206, "{range}");
+        assert_eq!(body, whole[first..=last].to_vec(), "{range}");
+        assert_eq!(
+            headers["content-range"],
+            format!("bytes {first}-{last}/{n}"),
+            "{range}"
+        );
+        assert_eq!(headers["content-length"], (last - first + 1).to_string());
+    }
+    let past = format!("bytes={n}-");
+    let (status, headers, body) = call(
+        &mut contract,
+        "GET",
+        &path,
+        s.get(&path).header("Range", &past),
+    )
+    .await;
+    assert_eq!(
+        (status, json(&body)["error"]["code"].clone()),
+        (416, "range_not_satisfiable".into())
+    );
+    assert_eq!(headers["content-range"], format!("bytes */{n}"));
+    // A stale If-Range gets the whole file; a current one the part.
+    let r = s
+        .get(&path)
+        .header("Range", "bytes=0-9")
+        .header("If-Range", "\"old\"");
+    assert_eq!(r.send().await.unwrap().status(), 200);
+    let r = s
+        .get(&path)
+        .header("Range", "bytes=0-9")
+        .header("If-Range", &tag);
+    assert_eq!(r.send().await.unwrap().status(), 206);
+    // Several ranges are not served as such: the whole file.
+    let r = s
+        .get(&path)
+        .header("Range", "bytes=0-1,4-5")
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+
+    // CORS: a listed origin's preflight and request are allowed, others are not.
+    let preflight = s
+        .client
+        .request(reqwest::Method::OPTIONS, s.url("/v1/jobs"))
+        .header("Origin", "https://portal.example.com")
+        .header("Access-Control-Request-Method", "POST")
+        .header(
+            "Access-Control-Request-Headers",
+            "authorization, idempotency-key",
+        )
+        .send()
+        .await
+        .unwrap();
+    assert!(preflight.status().is_success(), "{}", preflight.status());
+    let h = preflight.headers();
+    assert_eq!(
+        h["access-control-allow-origin"],
+        "https://portal.example.com"
+    );
+    let allowed = h["access-control-allow-headers"]
+        .to_str()
+        .unwrap()
+        .to_ascii_lowercase();
+    assert!(
+        allowed.contains("idempotency-key") && allowed.contains("authorization"),
+        "{allowed}"
+    );
+    let res = s
+        .get(&path)
+        .header("Origin", "https://portal.example.com")
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(
+        res.headers()["access-control-allow-origin"],
+        "https://portal.example.com"
+    );
+    let exposed = res.headers()["access-control-expose-headers"]
+        .to_str()
+        .unwrap()
+        .to_ascii_lowercase();
+    assert!(
+        exposed.contains("etag") && exposed.contains("location"),
+        "{exposed}"
+    );
+    let res = s
+        .get(&path)
+        .header("Origin", "https://evil.example.net")
+        .send()
+        .await
+        .unwrap();
+    assert!(res.headers().get("access-control-allow-origin").is_none());
+    s.stop().await;
+    // Without --cors-origin, no CORS headers at all.
+    let mut s = env.start(1, |_| {}).await;
+    let res = s
+        .get("/v1/jobs")
+        .header("Origin", "https://portal.example.com")
+        .send()
+        .await
+        .unwrap();
+    assert!(res.headers().get("access-control-allow-origin").is_none());
+    s.stop().await;
+}
+
+/// The `id:` and `data:` of each `job` event in an event stream's text.
+fn sse_events(text: &str) -> Vec<(String, Value)> {
+    text.split("\n\n")
+        .filter(|b| b.contains("event: job"))
+        .map(|b| {
+            let id = b
+                .lines()
+                .find_map(|l| l.strip_prefix("id: "))
+                .unwrap_or_default();
+            let data: String = b.lines().filter_map(|l| l.strip_prefix("data: ")).collect();
+            (id.to_string(), serde_json::from_str(&data).unwrap())
+        })
+        .collect()
+}
+
+async fn events_resume_after_the_last_event_id(env: &Env) {
+    let mut s = env.start(100, |_| {}).await;
+    let mut contract = Contract::load();
+    let id = s.upload(xyz(8)).await["id"].as_str().unwrap().to_string();
+    let path = format!("/v1/jobs/{id}/events");
+    let (status, _, body) = call(&mut contract, "GET", &path, s.get(&path)).await;
+    assert_eq!(status, 200, "{}", env.backend);
+    let events = sse_events(&String::from_utf8(body).unwrap());
+    assert!(events.len() >= 2, "{events:?}");
+    let ids: Vec<&str> = events.iter().map(|(i, _)| i.as_str()).collect();
+    assert!(
+        ids.iter().all(|i| !i.is_empty()),
+        "every job event has an id: {ids:?}"
+    );
+    let unique: std::collections::BTreeSet<&&str> = ids.iter().collect();
+    assert_eq!(unique.len(), ids.len(), "ids name distinct states: {ids:?}");
+    let (last_id, last) = events.last().unwrap();
+    assert_eq!(last["status"], "succeeded");
+    // Reconnecting after the final state: 204, nothing to resend.
+    let (status, _, body) = call(
+        &mut contract,
+        "GET",
+        &path,
+        s.get(&path).header("Last-Event-ID", last_id),
+    )
+    .await;
+    assert_eq!((status, body.len()), (204, 0));
+    // Reconnecting after an earlier state: the current state, not the one already seen.
+    let (status, _, body) = call(
+        &mut contract,
+        "GET",
+        &path,
+        s.get(&path).header("Last-Event-ID", &events[0].0),
+    )
+    .await;
+    assert_eq!(status, 200);
+    let resumed = sse_events(&String::from_utf8(body).unwrap());
+    assert_eq!(resumed.len(), 1, "{resumed:?}");
+    assert_eq!(&resumed[0].0, last_id);
     s.stop().await;
 }

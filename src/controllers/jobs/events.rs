@@ -1,19 +1,24 @@
 //! `GET /v1/jobs/{id}/events`: server-sent events. Each `job` event carries the whole job
 //! (as `GET /v1/jobs/{id}`) whenever its status, stage or progress changes; the stream ends
 //! after a terminal status, or with a `deleted` event.
+//!
+//! Each `job` event's `id` names the state it shows. A client that reconnects with
+//! `Last-Event-ID` (browsers do by themselves) is sent only states after that one; when that
+//! was the job's final state, the answer is `204`, which tells a browser to stop reconnecting.
 
 use std::convert::Infallible;
 use std::time::Duration;
 
 use axum::extract::{Path, State};
+use axum::http::{HeaderMap, StatusCode};
 use axum::response::sse::{Event, KeepAlive, Sse};
-use futures_util::Stream;
+use axum::response::{IntoResponse, Response};
 use tokio::sync::broadcast;
 
 use crate::app::AppState;
 use crate::auth::Tenant;
 use crate::errors::ApiError;
-use crate::queue::{JobId, JobStatus};
+use crate::queue::{Job, JobId};
 use crate::views::JobView;
 
 /// Without a change notice (another process's worker), the job is re-read this often.
@@ -24,7 +29,8 @@ struct Watch {
     tenant: String,
     id: JobId,
     changes: broadcast::Receiver<JobId>,
-    last: Option<(JobStatus, Option<String>, u64)>,
+    /// The id of the last state sent (or the client's `Last-Event-ID`).
+    last: Option<String>,
     first: bool,
     done: bool,
 }
@@ -69,18 +75,19 @@ impl Watch {
                     continue;
                 }
             };
-            let key = (
-                job.status,
-                job.stage.clone(),
-                (job.progress * 1000.0) as u64,
-            );
+            let key = state_id(&job);
             if self.last.as_ref() == Some(&key) {
+                // Nothing new; a terminal state the client already has ends the stream.
+                if job.status.is_terminal() {
+                    return None;
+                }
                 continue;
             }
-            self.last = Some(key);
+            self.last = Some(key.clone());
             self.done = job.status.is_terminal();
             let event = Event::default()
                 .event("job")
+                .id(key)
                 .json_data(JobView::new(&job, &self.state.config))
                 .unwrap_or_else(|_| Event::default().event("job"));
             return Some((Ok(event), self));
@@ -88,21 +95,42 @@ impl Watch {
     }
 }
 
+/// The id of a job's visible state: its status, stage and progress (to 0.1 %).
+fn state_id(job: &Job) -> String {
+    format!(
+        "{}.{}.{}",
+        job.status.as_str(),
+        job.stage.as_deref().unwrap_or("-"),
+        (job.progress * 1000.0) as u64
+    )
+}
+
 pub async fn events(
     State(state): State<AppState>,
     Tenant(tenant): Tenant,
     Path(id): Path<String>,
-) -> Result<Sse<impl Stream<Item = Result<Event, Infallible>>>, ApiError> {
+    headers: HeaderMap,
+) -> Result<Response, ApiError> {
     let job = super::load(&state, &tenant, &id).await?;
+    let last = headers
+        .get("last-event-id")
+        .and_then(|v| v.to_str().ok())
+        .map(|v| v.trim().to_string())
+        .filter(|v| !v.is_empty() && v.len() <= 200);
+    if job.status.is_terminal() && last.as_deref() == Some(state_id(&job).as_str()) {
+        return Ok(StatusCode::NO_CONTENT.into_response());
+    }
     let watch = Watch {
         changes: state.changes.subscribe(),
         state,
         tenant,
         id: job.id,
-        last: None,
+        last,
         first: true,
         done: false,
     };
     let stream = futures_util::stream::unfold(watch, Watch::next);
-    Ok(Sse::new(stream).keep_alive(KeepAlive::new().interval(Duration::from_secs(15))))
+    Ok(Sse::new(stream)
+        .keep_alive(KeepAlive::new().interval(Duration::from_secs(15)))
+        .into_response())
 }
