@@ -13,6 +13,7 @@ mod browser;
 mod cli;
 mod deploy_manifests;
 mod hostile;
+mod integrating;
 mod job_api;
 mod scale_out;
 mod service_plan;
