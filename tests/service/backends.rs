@@ -11,8 +11,8 @@ use crate::support::engines::{engines, unique, Engines};
 use asbuilt::queue::postgres::PgJobStore;
 use asbuilt::queue::sqlite::SqliteJobStore;
 use asbuilt::queue::{
-    Beat, Heartbeat, JobError, JobId, JobOutcome, JobStatus, JobStore, ListQuery, NewJob,
-    UploadInfo, WORKER_LOST,
+    Beat, Delivery, Heartbeat, Idempotency, Inserted, JobError, JobId, JobMeta, JobOutcome,
+    JobStatus, JobStore, ListQuery, NewJob, UploadInfo, WORKER_LOST,
 };
 use asbuilt::storage::{local, s3, BlobError, BlobStore, ByteStream};
 use bytes::Bytes;
@@ -128,6 +128,9 @@ on_both_backends!(
     delete_prefix_removes_only_that_job,
     results_are_whole_or_absent,
     presigned_urls_fetch_the_object_when_configured,
+    keyed_replanned_tagged_and_expired_jobs,
+    webhooks_are_claimed_once_and_recorded,
+    ranged_reads_return_the_bytes_asked_for,
 );
 
 fn new_job(tenant: &str, max_attempts: u32) -> NewJob {
@@ -615,4 +618,199 @@ async fn presigned_urls_fetch_the_object_when_configured(b: &Backend) {
     assert_eq!(body.status().as_u16(), 200);
     assert_eq!(body.text().await.unwrap(), "<svg/>");
     signing.delete_prefix("jobs").await.unwrap();
+}
+
+fn created(i: Inserted) -> asbuilt::queue::Job {
+    match i {
+        Inserted::Created(job) => *job,
+        other => panic!("not created: {other:?}"),
+    }
+}
+
+/// The job API's store steps: idempotency keys, re-plans sharing an upload, metadata filters,
+/// and tombstones of expired jobs.
+async fn keyed_replanned_tagged_and_expired_jobs(b: &Backend) {
+    let s = &b.store;
+    let keyed = |key: &str| NewJob {
+        idempotency: Some(Idempotency {
+            key: key.into(),
+            request_hash: "h1".into(),
+        }),
+        meta: JobMeta {
+            external_ref: Some("b-42".into()),
+            tags: vec!["fm".into(), "north".into()],
+        },
+        ..new_job("a", 3)
+    };
+    let first = created(s.insert(keyed("k1"), 0).await.unwrap());
+    assert!(
+        matches!(s.insert(keyed("k1"), 0).await.unwrap(), Inserted::KeyTaken),
+        "{}",
+        b.name
+    );
+    // Keys are per tenant.
+    let other = NewJob {
+        tenant: "b".into(),
+        ..keyed("k1")
+    };
+    created(s.insert(other, 0).await.unwrap());
+    let found = s.by_idempotency_key("a", "k1").await.unwrap().unwrap();
+    assert_eq!(
+        (found.id, found.idempotency.unwrap().request_hash),
+        (first.id, "h1".into())
+    );
+    assert!(s.by_idempotency_key("a", "k2").await.unwrap().is_none());
+    assert_eq!(first.meta.tags, vec!["fm".to_string(), "north".to_string()]);
+    assert_eq!(first.input_job, first.id);
+    // Filters: every tag asked for, and the reference.
+    created(s.insert(new_job("a", 3), 0).await.unwrap());
+    let q = |external_ref: Option<&str>, tags: &[&str]| ListQuery {
+        tenant: "a".into(),
+        limit: 10,
+        external_ref: external_ref.map(str::to_string),
+        tags: tags.iter().map(|t| t.to_string()).collect(),
+        ..Default::default()
+    };
+    let ids = |jobs: Vec<asbuilt::queue::Job>| jobs.into_iter().map(|j| j.id).collect::<Vec<_>>();
+    assert_eq!(s.list(&q(None, &[])).await.unwrap().len(), 2);
+    assert_eq!(
+        ids(s.list(&q(None, &["fm"])).await.unwrap()),
+        vec![first.id]
+    );
+    assert_eq!(
+        ids(s.list(&q(None, &["north", "fm"])).await.unwrap()),
+        vec![first.id]
+    );
+    assert!(s.list(&q(None, &["fm", "south"])).await.unwrap().is_empty());
+    assert_eq!(
+        ids(s.list(&q(Some("b-42"), &[])).await.unwrap()),
+        vec![first.id]
+    );
+    assert!(s.list(&q(Some("b-43"), &[])).await.unwrap().is_empty());
+
+    // A re-plan reads the first upload; the upload is in use while either row exists.
+    let replan = NewJob {
+        replan_of: Some((first.id, first.input_job)),
+        ..new_job("a", 3)
+    };
+    let r = created(s.insert(replan, 0).await.unwrap());
+    assert_eq!(r.input_job, first.id);
+    assert!(r.is_replan() && !first.is_replan());
+    assert!(s.delete(first.id).await.unwrap());
+    assert!(
+        s.upload_in_use(first.id).await.unwrap(),
+        "the re-plan still reads it"
+    );
+    let gone = NewJob {
+        replan_of: Some((first.id, first.id)),
+        ..new_job("a", 3)
+    };
+    assert!(matches!(
+        s.insert(gone, 0).await.unwrap(),
+        Inserted::SourceGone
+    ));
+    assert!(s.delete(r.id).await.unwrap());
+    assert!(!s.upload_in_use(first.id).await.unwrap());
+
+    // Expiry leaves a tombstone for the job's tenant only, until it is forgotten.
+    let old = s.create(new_job("a", 3)).await.unwrap();
+    assert!(s.expire(old.id).await.unwrap());
+    assert!(!s.expire(old.id).await.unwrap());
+    assert!(s.get(None, old.id).await.unwrap().is_none());
+    let at = s
+        .expired_at("a", old.id)
+        .await
+        .unwrap()
+        .expect("a tombstone");
+    assert!(at > 0);
+    assert!(s.expired_at("b", old.id).await.unwrap().is_none());
+    assert!(s.expired_at("a", JobId::new()).await.unwrap().is_none());
+    assert_eq!(s.forget_expired(at + 1).await.unwrap(), 1);
+    assert!(s.expired_at("a", old.id).await.unwrap().is_none());
+}
+
+async fn webhooks_are_claimed_once_and_recorded(b: &Backend) {
+    let s = &b.store;
+    let hooked = NewJob {
+        callback_url: Some("https://hooks.example.com/x".into()),
+        ..new_job("a", 3)
+    };
+    let job = s.create(hooked).await.unwrap();
+    s.create(new_job("a", 3)).await.unwrap();
+    // Not before it ends.
+    assert!(
+        s.claim_hooks(60_000, 10).await.unwrap().is_empty(),
+        "{}",
+        b.name
+    );
+    for _ in 0..2 {
+        let c = s.claim("w", 10_000).await.unwrap().unwrap();
+        assert!(s.complete(c.id, "w", &outcome(1)).await.unwrap());
+    }
+    // Only the job with a callback, once, while leased.
+    let other = (b.reopen)().await;
+    let got = s.claim_hooks(60_000, 10).await.unwrap();
+    assert_eq!(
+        got.iter().map(|(j, n)| (j.id, *n)).collect::<Vec<_>>(),
+        vec![(job.id, 0)]
+    );
+    assert!(other.claim_hooks(60_000, 10).await.unwrap().is_empty());
+    // A failed attempt due again is claimed again, with its count; a finished one never.
+    s.hook_tried(job.id, 1, Some(0)).await.unwrap();
+    let again = other.claim_hooks(60_000, 10).await.unwrap();
+    assert_eq!(
+        again.iter().map(|(j, n)| (j.id, *n)).collect::<Vec<_>>(),
+        vec![(job.id, 1)]
+    );
+    s.hook_tried(job.id, 2, None).await.unwrap();
+    assert!(s.claim_hooks(0, 10).await.unwrap().is_empty());
+    for attempt in [1u32, 2] {
+        s.record_delivery(&Delivery {
+            id: uuid::Uuid::now_v7(),
+            job: job.id,
+            event: "job.succeeded".into(),
+            url: "https://hooks.example.com/x".into(),
+            attempt,
+            at: 1000 * attempt as i64,
+            status: if attempt == 1 { Some(503) } else { Some(204) },
+            error: (attempt == 1).then(|| "the receiver answered 503".into()),
+            duration_ms: 12,
+        })
+        .await
+        .unwrap();
+    }
+    let d = s.deliveries(job.id).await.unwrap();
+    assert_eq!(
+        d.iter().map(|x| (x.attempt, x.status)).collect::<Vec<_>>(),
+        vec![(1, Some(503)), (2, Some(204))]
+    );
+    assert_eq!(d[0].error.as_deref(), Some("the receiver answered 503"));
+    // Deleting the job takes its deliveries along.
+    assert!(s.delete(job.id).await.unwrap());
+    assert!(s.deliveries(job.id).await.unwrap().is_empty());
+}
+
+async fn ranged_reads_return_the_bytes_asked_for(b: &Backend) {
+    let key = format!("jobs/{}/result/plan.svg", JobId::new());
+    let bytes: Vec<u8> = (0..1000u32).map(|i| (i % 251) as u8).collect();
+    b.blobs.put(&key, Bytes::from(bytes.clone())).await.unwrap();
+    assert_eq!(b.blobs.size(&key).await.unwrap(), Some(1000), "{}", b.name);
+    for range in [0..10u64, 990..1000, 100..101, 500..1000] {
+        let (blob, total) = b
+            .blobs
+            .get_part(&key, range.clone())
+            .await
+            .unwrap()
+            .unwrap();
+        assert_eq!((blob.size, total), (range.end - range.start, 1000));
+        let got: Vec<u8> = blob.stream.map(|c| c.unwrap().to_vec()).concat().await;
+        assert_eq!(
+            got,
+            bytes[range.start as usize..range.end as usize].to_vec(),
+            "{range:?}"
+        );
+    }
+    let missing = format!("jobs/{}/result/plan.svg", JobId::new());
+    assert!(b.blobs.get_part(&missing, 0..1).await.unwrap().is_none());
+    assert_eq!(b.blobs.size(&missing).await.unwrap(), None);
 }
