@@ -228,7 +228,10 @@ pub async fn record(
             return replay(state, first, Some(key));
         }
     };
-    state.metrics.upload(job.upload.bytes);
+    // A re-plan uploaded nothing.
+    if !job.is_replan() {
+        state.metrics.upload(job.upload.bytes);
+    }
     state.queued.notify_one();
     state.changed(job.id);
     tracing::info!(job = %job.id, bytes = job.upload.bytes, replan = job.is_replan(), "job queued");
