@@ -2,8 +2,10 @@
 
 use axum::extract::DefaultBodyLimit;
 use axum::http::{header, HeaderName, HeaderValue, Method};
+use axum::response::Response;
 use axum::routing::{get, post};
 use axum::Router;
+use tower_http::compression::CompressionLayer;
 use tower_http::cors::{AllowOrigin, CorsLayer};
 use tower_http::trace::TraceLayer;
 
@@ -110,6 +112,27 @@ pub fn cors(origins: &[String]) -> Result<Option<CorsLayer>, String> {
     ))
 }
 
+/// A gzipped answer is another representation, so a strong `ETag` gets a `-gzip` suffix
+/// (`results.rs` accepts both forms in `If-None-Match`).
+async fn tag_encoding(mut response: Response) -> Response {
+    let gzipped = response
+        .headers()
+        .get(header::CONTENT_ENCODING)
+        .is_some_and(|e| e == "gzip");
+    if gzipped {
+        let tagged = response
+            .headers()
+            .get(header::ETAG)
+            .and_then(|t| t.to_str().ok())
+            .filter(|t| t.starts_with('"') && t.ends_with('"') && t.len() >= 2)
+            .map(|t| format!("\"{}-gzip\"", &t[1..t.len() - 1]));
+        if let Some(v) = tagged.and_then(|t| HeaderValue::from_str(&t).ok()) {
+            response.headers_mut().insert(header::ETAG, v);
+        }
+    }
+    response
+}
+
 /// The application's router.
 pub fn build(state: AppState) -> Router {
     let cors = cors(&state.config.cors_origins).ok().flatten();
@@ -142,6 +165,9 @@ pub fn build(state: AppState) -> Router {
         .route("/v1/jobs/{id}/{file}", get(jobs::results::file))
         .fallback(controllers::route_not_found)
         .method_not_allowed_fallback(controllers::method_not_allowed)
+        // gzip when the client accepts it; not for event streams, images or byte ranges.
+        .layer(CompressionLayer::new().gzip(true))
+        .layer(axum::middleware::map_response(tag_encoding))
         .layer(TraceLayer::new_for_http())
         .with_state(state);
     match cors {

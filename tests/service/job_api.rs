@@ -1147,6 +1147,73 @@ async fn results_revalidate_and_serve_ranges_and_other_origins(env: &Env) {
         .unwrap();
     assert_eq!(r.status(), 200);
 
+    // gzip for clients that accept it: the same bytes once inflated (by Python's gzip), another
+    // tag, and both tags revalidate. Ranges and event streams are never compressed.
+    let geo = format!("/v1/jobs/{id}/plan.geojson");
+    let plain = s.get(&geo).send().await.unwrap();
+    assert!(plain.headers().get("content-encoding").is_none());
+    let plain_tag = plain.headers()["etag"].to_str().unwrap().to_string();
+    let plain = plain.bytes().await.unwrap();
+    // (Not through the contract check: the body is gzip, not JSON, until inflated.)
+    let res = s
+        .get(&geo)
+        .header("Accept-Encoding", "gzip")
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(res.status(), 200);
+    let headers = res.headers().clone();
+    let zipped = res.bytes().await.unwrap();
+    assert_eq!(headers["content-encoding"], "gzip");
+    assert!(headers["vary"]
+        .to_str()
+        .unwrap()
+        .to_ascii_lowercase()
+        .contains("accept-encoding"));
+    let zipped_tag = headers["etag"].to_str().unwrap().to_string();
+    assert_eq!(
+        zipped_tag,
+        format!("{}-gzip\"", plain_tag.trim_end_matches('"'))
+    );
+    assert_eq!(&zipped[..2], b"\x1f\x8b", "a gzip stream");
+    assert!(
+        zipped.len() < plain.len(),
+        "{} vs {}",
+        zipped.len(),
+        plain.len()
+    );
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("z"), &zipped).unwrap();
+    let out = std::process::Command::new("python3")
+        .args(["-c", "import gzip, sys; sys.stdout.buffer.write(gzip.decompress(open(sys.argv[1], 'rb').read()))"])
+        .arg(dir.path().join("z"))
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert_eq!(out.stdout, plain.to_vec(), "inflated, the same bytes");
+    for tag in [&plain_tag, &zipped_tag] {
+        let r = s
+            .get(&geo)
+            .header("Accept-Encoding", "gzip")
+            .header("If-None-Match", tag.as_str());
+        assert_eq!(r.send().await.unwrap().status(), 304, "{tag}");
+    }
+    let r = s
+        .get(&geo)
+        .header("Accept-Encoding", "gzip")
+        .header("Range", "bytes=0-9");
+    let r = r.send().await.unwrap();
+    assert_eq!(r.status(), 206);
+    assert!(r.headers().get("content-encoding").is_none());
+    let events = format!("/v1/jobs/{id}/events");
+    let r = s
+        .get(&events)
+        .header("Accept-Encoding", "gzip")
+        .send()
+        .await
+        .unwrap();
+    assert!(r.headers().get("content-encoding").is_none());
+
     // CORS: a listed origin's preflight and request are allowed, others are not.
     let preflight = s
         .client

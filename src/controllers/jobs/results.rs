@@ -3,7 +3,8 @@
 //!
 //! A result never changes once its job succeeded, so it carries a strong `ETag` (of the job,
 //! its end and the file) and answers `If-None-Match` with `304`; a single `Range` of bytes is
-//! answered with `206` (with `If-Range`, only while the `ETag` still matches).
+//! answered with `206` (with `If-Range`, only while the `ETag` still matches). The router
+//! gzips whole results for clients that accept it, tagging them `"TAG-gzip"`.
 
 use axum::body::Body;
 use axum::extract::{Path, State};
@@ -32,13 +33,15 @@ fn etag(job: &Job, name: &str) -> String {
     format!("\"{hex}\"")
 }
 
-/// True when `If-None-Match` names `tag` (or is `*`): the client's copy is current.
+/// True when `If-None-Match` names `tag` (or its gzipped form, or is `*`): the client's copy
+/// is current.
 fn none_match(headers: &HeaderMap, tag: &str) -> bool {
+    let gzipped = format!("{}-gzip\"", tag.trim_end_matches('"'));
     headers.get_all(IF_NONE_MATCH).iter().any(|v| {
         v.to_str().is_ok_and(|v| {
             v.split(',')
                 .map(|t| t.trim().trim_start_matches("W/"))
-                .any(|t| t == "*" || t == tag)
+                .any(|t| t == "*" || t == tag || t == gzipped)
         })
     })
 }
