@@ -26,7 +26,7 @@ const LEASE_MS: i64 = 60_000;
 /// A receiver must answer within this.
 const TIMEOUT: Duration = Duration::from_secs(10);
 /// How often due deliveries are looked for.
-const POLL: Duration = Duration::from_millis(250);
+const POLL: Duration = Duration::from_millis(500);
 /// The longest wait between attempts.
 const MAX_BACKOFF_MS: u64 = 3_600_000;
 /// The longest callback URL accepted.

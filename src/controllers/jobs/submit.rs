@@ -219,7 +219,9 @@ pub async fn record(
         Inserted::KeyTaken => {
             // A concurrent request with the same key won the race.
             discard().await;
-            let key = key.as_ref().expect("only keyed jobs collide");
+            let Some(key) = key.as_ref() else {
+                return Err(ApiError::internal("a job without a key collided on one"));
+            };
             let Some(first) = state.store.by_idempotency_key(&tenant, &key.key).await? else {
                 return Err(ApiError::internal(
                     "an idempotency key collided with no job",
