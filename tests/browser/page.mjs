@@ -104,6 +104,7 @@ try {
     // A trajectory goes as `trajectory`, found from the file's content; a bad sidecar never leaves.
     const page = await open();
     await page.setInputFiles("#file", [file("room.xyz"), file("bad.json")]);
+    await until(page, () => !$("sidecarinfo").textContent.startsWith("reading"));
     seen.badInfo = await page.textContent("#sidecarinfo");
     seen.badStart = await page.isDisabled("#start");
     await check(seen.badInfo.includes("neither poses") && seen.badStart, "a bad sidecar was not refused in the page");
@@ -162,6 +163,27 @@ try {
     await until(page, () => $("uperr").textContent.length > 0);
     seen.refused = { err: await page.textContent("#uperr"), bar: await page.isHidden("#upload"), start: await page.isEnabled("#start") };
     await check(seen.refused.err.startsWith("Refused") && seen.refused.bar && seen.refused.start, "refusal state: " + JSON.stringify(seen.refused));
+    // An upload can be aborted: slow the network, start, abort.
+    const cdp = await page.context().newCDPSession(page);
+    await cdp.send("Network.enable");
+    await cdp.send("Network.emulateNetworkConditions", { offline: false, latency: 0, downloadThroughput: -1, uploadThroughput: 200 * 1024 });
+    await page.setInputFiles("#file", file("big.xyz"));
+    await page.click("#start");
+    await until(page, () => !$("abort").hidden);
+    seen.busyStart = await page.isDisabled("#start");
+    await page.click("#abort");
+    await until(page, () => $("uperr").textContent.includes("aborted"));
+    seen.aborted = { bar: await page.isHidden("#upload"), abort: await page.isHidden("#abort"), start: await page.isEnabled("#start") };
+    await check(seen.busyStart && seen.aborted.bar && seen.aborted.abort && seen.aborted.start, "abort: " + JSON.stringify(seen.aborted));
+    await cdp.send("Network.emulateNetworkConditions", { offline: false, latency: 0, downloadThroughput: -1, uploadThroughput: -1 });
+    // A cancelled job leaves no stage running.
+    await page.setInputFiles("#file", file("hang.xyz"));
+    await page.click("#start");
+    await until(page, () => !$("cancel").hidden && document.querySelector("#stages li.now"));
+    await page.click("#cancel");
+    await until(page, () => $("status").textContent.startsWith("cancelled"));
+    seen.cancelled = await page.evaluate(() => ({ now: document.querySelectorAll("#stages li.now").length, stopped: [...document.querySelectorAll("#stages li.stopped")].map((l) => l.textContent), cancel: $("cancel").hidden }));
+    await check(seen.cancelled.now === 0 && seen.cancelled.stopped.length === 1 && seen.cancelled.cancel, "after cancel: " + JSON.stringify(seen.cancelled));
     await page.checkClean();
   } else if (scenario === "warnings") {
     // Parameters checked in the page, in words; warnings and notes in yellow; skipped stages.
@@ -369,8 +391,8 @@ try {
     await page.locator("#jobs li[data-id] button.open").first().tap();
     await until(page, () => $("plan").dataset.drawn === "true");
     await page.waitForTimeout(300);
-    seen.progressTop = await page.evaluate(() => $("progresssec").getBoundingClientRect().top);
-    await check(Math.abs(seen.progressTop) < 50, "tapping a job did not bring it into view: " + seen.progressTop);
+    seen.planTop = await page.evaluate(() => $("plansec").getBoundingClientRect().top);
+    await check(Math.abs(seen.planTop) < 50, "tapping a job did not bring its plan into view: " + seen.planTop);
     await page.locator("#plan").scrollIntoViewIfNeeded();
     const box = await page.locator("#plan").boundingBox();
     const cdp = await page.context().newCDPSession(page);

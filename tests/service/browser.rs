@@ -69,6 +69,14 @@ fn scenario_files(dir: &Path) {
     .unwrap();
     std::fs::write(dir.join("bad.json"), r#"{"poses": []}"#).unwrap();
     std::fs::write(dir.join("refused.txt"), "hello world, this is text\n").unwrap();
+    // Large enough to abort while a slowed upload runs (the page never gets to send it all).
+    std::fs::write(dir.join("big.xyz"), server::xyz(400_000)).unwrap();
+    // The fake pipeline sits in its fit stage for 20 s: long enough to cancel.
+    std::fs::write(
+        dir.join("hang.xyz"),
+        format!("#hang:20\n{}", server::xyz(100)),
+    )
+    .unwrap();
 }
 
 /// Runs one scenario of `page.mjs` against a fresh fake server holding `jobs_before` jobs made
