@@ -410,6 +410,13 @@ try {
     await page.touchscreen.tap(wx, wy + 6);
     seen.tapWall = await page.textContent("#wallinfo");
     await check(seen.tapWall.includes("4.00 m long"), "tap on a wall: " + seen.tapWall);
+    // Measuring by touch: two taps.
+    await page.locator("#measure").tap();
+    const [ax, ay] = await screenOf(page, 0.5, 0.5), [bx, by] = await screenOf(page, 3.5, 0.5);
+    await page.touchscreen.tap(ax, ay);
+    await page.touchscreen.tap(bx, by);
+    seen.tapMeasure = Number(await page.getAttribute("#measureout", "data-metres"));
+    await check(Math.abs(seen.tapMeasure - 3) < 0.05, "measured by touch: " + seen.tapMeasure);
     const overflow = await page.evaluate(() => document.documentElement.scrollWidth - window.innerWidth);
     await check(overflow <= 0, "the page is wider than the phone by " + overflow + " px");
     await page.screenshot({ path: file("phone.png"), fullPage: true });
