@@ -251,6 +251,11 @@ try {
     seen.failedChip = await page.evaluate(() => [...document.querySelectorAll("#stages li.failed")].map((l) => l.textContent));
     seen.downloadsOff = await page.evaluate(() => [...document.querySelectorAll("#downloads button")].every((b) => b.disabled));
     await check(seen.failedChip.join() === "label" && seen.downloadsOff, "failed stage: " + seen.failedChip);
+    // With a parameter error shown, the open parameter list and a failed job: still no violations.
+    await page.fill("#p-samples\\.cell_size", "five");
+    await page.click("summary");
+    seen.axe = await axe(page);
+    await check(seen.axe.length === 0, "axe violations: " + seen.axe.join("; "));
     await page.checkClean();
   } else if (scenario === "underlay") {
     // Wall samples under the plan, scanners, rooms and a door; toggles; downloads named by scan.
@@ -419,6 +424,8 @@ try {
     await check(Math.abs(seen.tapMeasure - 3) < 0.05, "measured by touch: " + seen.tapMeasure);
     const overflow = await page.evaluate(() => document.documentElement.scrollWidth - window.innerWidth);
     await check(overflow <= 0, "the page is wider than the phone by " + overflow + " px");
+    seen.axe = await axe(page);
+    await check(seen.axe.length === 0, "axe violations on a phone: " + seen.axe.join("; "));
     await page.screenshot({ path: file("phone.png"), fullPage: true });
     await page.checkClean();
   } else {
