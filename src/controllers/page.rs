@@ -1,9 +1,53 @@
-//! `GET /`: the upload page, one self-contained HTML file compiled into the binary.
+//! `GET /`: the upload page, one self-contained HTML file compiled into the binary, with the
+//! pipeline's own tables (parameter ranges and units, stage names and weights) put in at start,
+//! so the page checks values and follows progress by the same rules as the server.
+
+use std::sync::LazyLock;
 
 use axum::http::header::{CACHE_CONTROL, CONTENT_SECURITY_POLICY, CONTENT_TYPE};
 use axum::response::IntoResponse;
+use serde_json::{json, Map, Value};
 
-const PAGE: &str = include_str!("../../static/index.html");
+const TEMPLATE: &str = include_str!("../../static/index.html");
+
+/// Where the tables go in the template.
+const SLOT: &str = "/*PIPELINE*/{}";
+
+/// The template with the tables in place.
+static PAGE: LazyLock<String> = LazyLock::new(|| {
+    // `</` cannot occur in the JSON (no value holds it), so it cannot end the script block early.
+    TEMPLATE.replacen(SLOT, &tables().to_string(), 1)
+});
+
+/// `ranges`: `section.name` → `{min, max, unit}`; `stages`: `[{name, weight}]` in pipeline order.
+fn tables() -> Value {
+    let ranges: Map<String, Value> = asbuilt_plan::params::ranges()
+        .into_iter()
+        .map(|(section, r)| {
+            (
+                format!("{section}.{}", r.name),
+                json!({"min": r.min, "max": r.max, "unit": r.unit}),
+            )
+        })
+        .collect();
+    let stages: Vec<Value> = asbuilt_plan::progress::STAGES
+        .iter()
+        .map(|r| json!({"name": r.name, "weight": r.weight}))
+        .collect();
+    json!({"ranges": ranges, "stages": stages})
+}
+
+/// The page; in a debug build with `ASBUILT_PAGE_FROM=static/index.html`, read afresh from that
+/// file at every request, to work on the page without rebuilding.
+fn page() -> String {
+    #[cfg(debug_assertions)]
+    if let Some(path) = std::env::var_os("ASBUILT_PAGE_FROM") {
+        if let Ok(text) = std::fs::read_to_string(path) {
+            return text.replacen(SLOT, &tables().to_string(), 1);
+        }
+    }
+    PAGE.clone()
+}
 
 pub async fn index() -> impl IntoResponse {
     (
@@ -16,6 +60,31 @@ pub async fn index() -> impl IntoResponse {
                 "default-src 'self'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; img-src 'self' data: blob:; connect-src 'self'",
             ),
         ],
-        PAGE,
+        page(),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_page_carries_every_range_and_stage() {
+        assert!(TEMPLATE.contains(SLOT), "the template lost its slot");
+        assert!(!PAGE.contains(SLOT));
+        let t = tables();
+        let ranges = t["ranges"].as_object().unwrap();
+        assert_eq!(ranges.len(), asbuilt_plan::params::ranges().len());
+        assert_eq!(ranges["samples.cell_size"]["unit"], "m");
+        assert_eq!(ranges["fitting.inlier_angle"]["unit"], "rad");
+        let names: Vec<&str> = t["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| s["name"].as_str().unwrap())
+            .collect();
+        assert_eq!(names.first(), Some(&"read"));
+        assert_eq!(names.last(), Some(&"write"));
+        assert!(PAGE.contains(&t.to_string()));
+    }
 }

@@ -163,7 +163,39 @@ fn failure(e: RunError, input: &JobInput) -> PipelineFailure {
     }
     let mut message = hide_path(e.to_string(), &input.cloud, "cloud");
     if let Some((kind, path)) = &input.sidecar {
-        message = hide_path(message, path, kind.name());
+        message = sidecar_message(message, path, *kind);
     }
     PipelineFailure::from_pipeline(e.code(), message)
+}
+
+/// A reader names a sidecar's problem `PATH: poses: why`; the client knows the file as its
+/// part, so it reads `poses: why` or `trajectory: why`, not `poses: poses: why`.
+fn sidecar_message(message: String, path: &Path, kind: SidecarKind) -> String {
+    let named = format!("{}: poses: ", path.display());
+    let message = message.replace(&named, &format!("{}: ", kind.name()));
+    hide_path(message, path, kind.name())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_sidecar_error_names_its_part_once() {
+        let path = Path::new("/data/jobs/x/sidecar.json");
+        let said = "/data/jobs/x/sidecar.json: poses: not valid pose JSON: no `scans` array";
+        assert_eq!(
+            sidecar_message(said.into(), path, SidecarKind::Poses),
+            "poses: not valid pose JSON: no `scans` array"
+        );
+        assert_eq!(
+            sidecar_message(said.into(), path, SidecarKind::Trajectory),
+            "trajectory: not valid pose JSON: no `scans` array"
+        );
+        let other = "the cloud has points of scan 0 but /data/jobs/x/sidecar.json has none";
+        assert_eq!(
+            sidecar_message(other.into(), path, SidecarKind::Poses),
+            "the cloud has points of scan 0 but poses has none"
+        );
+    }
 }

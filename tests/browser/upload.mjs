@@ -49,6 +49,7 @@ try {
     cancelHidden: document.getElementById("cancel").hidden,
     viewWarning: document.getElementById("viewwarn").hidden ? "" : document.getElementById("viewwarn").textContent,
     statusWarn: document.getElementById("status").classList.contains("warn"),
+    notes: document.getElementById("notes").hidden ? "" : document.getElementById("notes").textContent,
     statusColor: getComputedStyle(document.getElementById("status")).color,
   }));
   await page.screenshot({ path: shot, fullPage: true });
