@@ -687,9 +687,11 @@ for e in msp:
     out["counts"][key] = out["counts"].get(key, 0) + 1
 print(json.dumps(out))
 "#;
-        let Some(v) =
-            crate::io::outputs::python::run_json("ezdxf", script, &[file.path().to_str().unwrap()])
-        else {
+        let Some(v) = crate::io::outputs::python::run_json(
+            &["ezdxf"],
+            script,
+            &[file.path().to_str().unwrap()],
+        ) else {
             return;
         };
         assert_eq!(v["errors"], 0);

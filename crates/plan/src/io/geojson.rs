@@ -1054,7 +1054,7 @@ for i in range(len(rooms)):
 print(json.dumps(out))
 "#;
         let Some(v) = crate::io::outputs::python::run_json(
-            "shapely",
+            &["shapely"],
             script,
             &[file.path().to_str().unwrap()],
         ) else {

@@ -808,7 +808,8 @@ for st in sorted(f.by_type("IfcBuildingStorey"), key=lambda s: s.Elevation):
 print(json.dumps(out))
 "#;
         let Some(v) = python::run_json(
-            "ifcopenshell",
+            // The where-rule checker imports pytest's assertion rewriting.
+            &["ifcopenshell", "pytest"],
             &format!("import ifcopenshell.util.placement\n{script}"),
             &[file.path().to_str().unwrap()],
         ) else {

@@ -6,16 +6,17 @@ use std::process::Command;
 
 /// Runs `script` with `args` under python3 and returns what it printed as JSON, or `None`
 /// (after saying why) when python3 cannot import `modules` outside CI.
-pub(crate) fn run_json(modules: &str, script: &str, args: &[&str]) -> Option<serde_json::Value> {
+pub(crate) fn run_json(modules: &[&str], script: &str, args: &[&str]) -> Option<serde_json::Value> {
+    let (imports, pip) = (modules.join(", "), modules.join(" "));
     let probe = Command::new("python3")
-        .args(["-c", &format!("import {modules}")])
+        .args(["-c", &format!("import {imports}")])
         .output();
     if !probe.is_ok_and(|o| o.status.success()) {
         assert!(
             std::env::var_os("CI").is_none(),
-            "CI must have python3 with {modules} (pip install {modules})"
+            "CI must have python3 with {imports} (pip install {pip})"
         );
-        eprintln!("skipped: python3 with {modules} is not available (pip install {modules})");
+        eprintln!("skipped: python3 with {imports} is not available (pip install {pip})");
         return None;
     }
     let run = Command::new("python3")
