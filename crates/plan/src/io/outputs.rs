@@ -51,7 +51,7 @@ pub const OUTPUTS: [Output; 5] = [
         name: "ifc",
         file: "plan.ifc",
         media_type: "application/x-step",
-        about: "an IFC4 model (storeys, spaces, walls, doors, windows)",
+        about: "an IFC4 model: storeys, spaces, walls, doors and windows",
         write: |plan| ifc::to_ifc(plan).map_err(|e| e.to_string()),
     },
     Output {
