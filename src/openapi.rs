@@ -48,6 +48,31 @@ mod tests {
             })
             .collect();
         assert_eq!(results, OUTPUTS.iter().map(|o| o.file).collect::<Vec<_>>());
+        // A succeeded job links every output; any other links none.
+        let rules = doc["components"]["schemas"]["Job"]["allOf"]
+            .as_array()
+            .expect("Job rules");
+        let succeeded = rules
+            .iter()
+            .find(|r| r["if"]["properties"]["status"]["const"] == "succeeded")
+            .expect("a rule for succeeded jobs");
+        let mut required: Vec<&str> = succeeded["then"]["properties"]["links"]["required"]
+            .as_array()
+            .expect("required links")
+            .iter()
+            .filter_map(|v| v.as_str())
+            .filter(|k| !matches!(*k, "self" | "events"))
+            .collect();
+        required.sort_unstable();
+        assert_eq!(required, listed);
+        let mut absent: Vec<&str> = succeeded["else"]["properties"]["links"]["not"]["anyOf"]
+            .as_array()
+            .expect("links absent otherwise")
+            .iter()
+            .filter_map(|r| r["required"][0].as_str())
+            .collect();
+        absent.sort_unstable();
+        assert_eq!(absent, listed);
         for o in OUTPUTS {
             let path = format!("/v1/jobs/{{id}}/{}", o.file);
             let content = &doc["paths"][&path]["get"]["responses"]["200"]["content"];

@@ -18,14 +18,11 @@ pub struct PlanArgs {
     /// The point cloud: PLY, E57, LAS/LAZ, XYZ or PTS (chosen from the file's content).
     pub input: PathBuf,
     /// Write the GeoJSON plan here instead of standard output.
-    #[arg(short, long, value_name = "FILE")]
+    #[arg(short, long, visible_alias = "geojson", value_name = "FILE")]
     pub output: Option<PathBuf>,
-    /// Also write an SVG preview.
-    #[arg(long, value_name = "FILE")]
-    pub svg: Option<PathBuf>,
-    /// Also write a DXF R12 drawing.
-    #[arg(long, value_name = "FILE")]
-    pub dxf: Option<PathBuf>,
+    // `--svg FILE`, `--dxf FILE`, `--ifc FILE`, ...: one flag per output of the list.
+    #[command(flatten)]
+    pub outputs: OutputFlags,
     /// Static scanner poses, `{"scans": [{"index", "position", "quaternion"}]}`.
     #[arg(long, value_name = "FILE", conflicts_with = "trajectory")]
     pub poses: Option<PathBuf>,
@@ -57,6 +54,54 @@ pub struct PlanArgs {
     /// Write every stage's time, writing included, as a JSON object (for `asbuilt bench`).
     #[arg(long, value_name = "FILE", hide = true)]
     pub timings: Option<PathBuf>,
+}
+
+/// The files asked for with `--NAME FILE`, one flag per output of [`OUTPUTS`] (GeoJSON has
+/// `-o` instead), so a new format gets its flag from its row.
+#[derive(Clone, Debug, Default)]
+pub struct OutputFlags(pub Vec<(&'static Output, PathBuf)>);
+
+impl OutputFlags {
+    /// Every output but the GeoJSON, which `-o` names.
+    fn flagged() -> impl Iterator<Item = &'static Output> {
+        OUTPUTS.iter().filter(|o| o.name != "geojson")
+    }
+}
+
+impl clap::FromArgMatches for OutputFlags {
+    fn from_arg_matches(matches: &clap::ArgMatches) -> Result<Self, clap::Error> {
+        let mut flags = OutputFlags::default();
+        flags.update_from_arg_matches(matches)?;
+        Ok(flags)
+    }
+
+    fn update_from_arg_matches(&mut self, matches: &clap::ArgMatches) -> Result<(), clap::Error> {
+        for output in OutputFlags::flagged() {
+            if let Some(path) = matches.get_one::<PathBuf>(output.name) {
+                self.0.retain(|(o, _)| o.name != output.name);
+                self.0.push((output, path.clone()));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl clap::Args for OutputFlags {
+    fn augment_args(cmd: clap::Command) -> clap::Command {
+        OutputFlags::flagged().fold(cmd, |cmd, o| {
+            cmd.arg(
+                clap::Arg::new(o.name)
+                    .long(o.name)
+                    .value_name("FILE")
+                    .value_parser(clap::value_parser!(PathBuf))
+                    .help(format!("Also write {} ({})", o.about, o.file)),
+            )
+        })
+    }
+
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        OutputFlags::augment_args(cmd)
+    }
 }
 
 /// How to read the input; shared by `plan` and `info`.
@@ -94,7 +139,8 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
     if let Some(s) = args.read.scale {
         check_scale(s)?;
     }
-    for out in [&args.output, &args.svg, &args.dxf].into_iter().flatten() {
+    let paths = args.outputs.0.iter().map(|(_, p)| p);
+    for out in args.output.iter().chain(paths) {
         check_writable(out)?;
     }
     let stream = match &args.max_memory {
@@ -255,9 +301,12 @@ fn check_scale(s: f64) -> anyhow::Result<()> {
 fn destination<'a>(args: &'a PlanArgs, output: &Output) -> Option<&'a PathBuf> {
     match output.name {
         "geojson" => args.output.as_ref(),
-        "svg" => args.svg.as_ref(),
-        "dxf" => args.dxf.as_ref(),
-        _ => None,
+        name => args
+            .outputs
+            .0
+            .iter()
+            .find(|(o, _)| o.name == name)
+            .map(|(_, p)| p),
     }
 }
 
@@ -375,26 +424,36 @@ mod tests {
         }
     }
 
+    #[derive(clap::Parser)]
+    struct Cli {
+        #[command(flatten)]
+        plan: PlanArgs,
+    }
+
+    fn parse(args: &[&str]) -> Result<PlanArgs, clap::Error> {
+        use clap::Parser;
+        Cli::try_parse_from(std::iter::once("asbuilt").chain(args.iter().copied())).map(|c| c.plan)
+    }
+
+    /// `-o`, `--svg` and `--dxf` work as before, and every other output of the list has its
+    /// own `--NAME FILE` flag.
     #[test]
     fn writes_every_requested_output() {
         let dir = tempfile::tempdir().unwrap();
-        let args = PlanArgs {
-            input: "in.ply".into(),
-            output: Some(dir.path().join("plan.geojson")),
-            svg: Some(dir.path().join("plan.svg")),
-            dxf: Some(dir.path().join("plan.dxf")),
-            poses: None,
-            trajectory: None,
-            params: None,
-            overrides: vec![],
-            registration_error: None,
-            read: ReadArgs::default(),
-            emit_samples: false,
-            quiet: true,
-            max_memory: None,
-            timings: None,
-        };
+        let path = |f: &str| dir.path().join(f).to_str().unwrap().to_string();
+        let mut argv = vec!["in.ply".to_string(), "-o".into(), path("plan.geojson")];
+        for o in OUTPUTS.iter().filter(|o| o.name != "geojson") {
+            argv.push(format!("--{}", o.name));
+            argv.push(path(o.file));
+        }
+        let argv: Vec<&str> = argv.iter().map(String::as_str).collect();
+        let args = parse(&argv).unwrap();
+        assert_eq!(args.outputs.0.len(), OUTPUTS.len() - 1);
         write_outputs(&args, &square_plan()).unwrap();
+        for o in &OUTPUTS {
+            let bytes = std::fs::read(dir.path().join(o.file)).unwrap();
+            assert_eq!(bytes, (o.write)(&square_plan()).unwrap(), "{}", o.name);
+        }
         let text = std::fs::read_to_string(dir.path().join("plan.geojson")).unwrap();
         let doc: serde_json::Value = serde_json::from_str(&text).unwrap();
         assert_eq!(
@@ -406,6 +465,38 @@ mod tests {
         assert!(svg.contains("Level 0, floor z = 10.00 m, area 6.0 m²"));
         let dxf = std::fs::read_to_string(dir.path().join("plan.dxf")).unwrap();
         assert!(dxf.contains("AC1009") && dxf.contains("STORY_0") && dxf.ends_with("EOF\n"));
+        let ifc = std::fs::read_to_string(dir.path().join("plan.ifc")).unwrap();
+        assert!(ifc.starts_with("ISO-10303-21;") && ifc.contains("IFCBUILDINGSTOREY("));
+        let csv = std::fs::read_to_string(dir.path().join("rooms.csv")).unwrap();
+        assert!(csv.starts_with("level,room,area_m2,"));
+    }
+
+    #[test]
+    fn only_the_named_outputs_are_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let ifc = dir.path().join("model.ifc");
+        let geojson = dir.path().join("plan.geojson");
+        let args = parse(&[
+            "in.ply",
+            "--ifc",
+            ifc.to_str().unwrap(),
+            "--output",
+            geojson.to_str().unwrap(),
+        ])
+        .unwrap();
+        write_outputs(&args, &square_plan()).unwrap();
+        let mut names: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["model.ifc", "plan.geojson"]);
+        // `--geojson` is `--output`'s other name, so every output has its `--NAME`.
+        assert_eq!(
+            parse(&["in.ply", "--geojson", "x"]).unwrap().output,
+            Some(PathBuf::from("x"))
+        );
+        assert!(parse(&["in.ply", "--pdf", "x"]).is_err());
     }
 
     #[test]

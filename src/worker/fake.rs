@@ -1,8 +1,8 @@
 //! A synthetic pipeline for testing the service without the real stages (`--fake-pipeline-ms`).
 //!
 //! It counts the cloud's non-empty lines as points, spends a fixed time in each stage (checking
-//! for cancellation every 10 ms), and returns a 4 m × 3 m one-story plan through the real
-//! writers (with `spin`, it burns CPU instead of sleeping). A cloud whose text contains `#fail:CODE` fails with CODE; `#panic` panics;
+//! for cancellation every 10 ms), and returns a 4 m × 3 m one-story plan (two rooms, a door, a
+//! window and five walls with thickness) through the real writers (with `spin`, it burns CPU instead of sleeping). A cloud whose text contains `#fail:CODE` fails with CODE; `#panic` panics;
 //! `#hang:SECS` spends SECS seconds in the fit stage without looking at its stop token (a
 //! stage stuck in a call that cannot be interrupted). Each run that completes appends its job
 //! id to the completions log, so tests can count runs.
@@ -11,7 +11,10 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use asbuilt_plan::plan::{FloorPlan, InputSummary, Polygon, StoryPlan, Wall, WallModel};
+use asbuilt_plan::plan::{
+    Door, DoorKind, FloorPlan, InputSummary, Polygon, Room, Spaces, StoryPlan, Wall, WallCentre,
+    WallModel, Window,
+};
 use asbuilt_plan::progress::{Progress, Stage};
 
 use crate::errors::JobCode;
@@ -60,7 +63,74 @@ impl FakePipeline {
     }
 }
 
-/// The plan every fake run returns: one story, a 4 × 3 m room, one arc wall.
+/// A room over the rectangle `[x0, x1] × [0, 3]`, floor 0 to ceiling 2.5.
+fn room(id: &str, x0: f64, x1: f64, neighbour: &str) -> Room {
+    Room {
+        id: id.into(),
+        polygon: Polygon {
+            exterior: vec![[x0, 0.0], [x1, 0.0], [x1, 3.0], [x0, 3.0]],
+            holes: vec![],
+        },
+        area: (x1 - x0) * 3.0,
+        perimeter: 2.0 * (x1 - x0 + 3.0),
+        floor_z: 0.0,
+        ceiling_z: 2.5,
+        scanners: vec![],
+        neighbours: vec![neighbour.into()],
+    }
+}
+
+/// The fake plan's rooms: a 10 cm wall at x = 2.5 with a door splits the 4 × 3 m floor; a
+/// window lights the west room; exterior walls (30 cm assumed) run round the outside.
+fn spaces() -> Spaces {
+    let some = |id: &str| Some(id.to_string());
+    let wall =
+        |n: usize, a: [f64; 2], b: [f64; 2], thickness: f64, left: &str, right: Option<String>| {
+            WallCentre {
+                id: format!("L0-C{n}"),
+                a,
+                b,
+                thickness,
+                exterior: right.is_none(),
+                rooms: [some(left), right],
+            }
+        };
+    let o = 0.15;
+    Spaces {
+        rooms: vec![
+            room("L0-R1", 0.0, 2.45, "L0-R2"),
+            room("L0-R2", 2.55, 4.0, "L0-R1"),
+        ],
+        doors: vec![Door {
+            id: "L0-D1".into(),
+            kind: DoorKind::Door,
+            a: [2.5, 1.0],
+            b: [2.5, 1.9],
+            width: 0.9,
+            head_z: Some(2.0),
+            depth: 0.1,
+            rooms: [some("L0-R1"), some("L0-R2")],
+        }],
+        windows: vec![Window {
+            id: "L0-W1".into(),
+            a: [0.6, -o],
+            b: [1.8, -o],
+            width: 1.2,
+            sill_z: 0.9,
+            head_z: 2.1,
+            room: some("L0-R1"),
+        }],
+        walls: vec![
+            wall(1, [2.5, 0.0], [2.5, 3.0], 0.1, "L0-R1", some("L0-R2")),
+            wall(2, [-o, -o], [4.0 + o, -o], 0.3, "L0-R1", None),
+            wall(3, [4.0 + o, -o], [4.0 + o, 3.0 + o], 0.3, "L0-R2", None),
+            wall(4, [4.0 + o, 3.0 + o], [-o, 3.0 + o], 0.3, "L0-R2", None),
+            wall(5, [-o, 3.0 + o], [-o, -o], 0.3, "L0-R1", None),
+        ],
+    }
+}
+
+/// The plan every fake run returns: one story, a 4 × 3 m floor in two rooms, one arc wall.
 pub fn square_plan(points: u64) -> FloorPlan {
     let arc: Vec<[f64; 2]> = (0..=8)
         .map(|i| {
@@ -103,7 +173,7 @@ pub fn square_plan(points: u64) -> FloorPlan {
                 },
             ],
             samples: vec![],
-            spaces: Default::default(),
+            spaces: spaces(),
         }],
         notes: vec![],
     }

@@ -494,7 +494,7 @@ async fn results_redirect_to_presigned_urls_when_configured() {
         assert!(Instant::now() < deadline, "{job}");
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
-    for file in ["plan.geojson", "plan.svg", "plan.dxf"] {
+    for file in asbuilt_plan::io::outputs::OUTPUTS.iter().map(|o| o.file) {
         let res = http
             .get(format!("{base}/v1/jobs/{id}/{file}"))
             .send()
@@ -512,7 +512,11 @@ async fn results_redirect_to_presigned_urls_when_configured() {
         match file {
             "plan.geojson" => check_geojson(&body),
             "plan.svg" => assert!(body.contains("<svg")),
-            _ => assert!(body.trim_end().ends_with("EOF")),
+            "plan.dxf" => assert!(body.trim_end().ends_with("EOF")),
+            "plan.ifc" => assert!(body.trim_end().ends_with("END-ISO-10303-21;")),
+            "rooms.csv" => assert!(body.starts_with("level,room,")),
+            // A format added to the list is at least served whole.
+            _ => assert!(!body.is_empty(), "{file}"),
         }
     }
     // A job that has no result yet is still refused by the API, not redirected.

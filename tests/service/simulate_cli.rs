@@ -160,6 +160,10 @@ fn the_readme_command_line_simulates_plans_and_reports_stage_times() {
         geojson.to_str().unwrap(),
         "--svg",
         svg.to_str().unwrap(),
+        "--ifc",
+        dir.join("plan.ifc").to_str().unwrap(),
+        "--rooms",
+        dir.join("rooms.csv").to_str().unwrap(),
     ]);
     let err = String::from_utf8_lossy(&plan.stderr);
     assert!(plan.status.success(), "{err}");
@@ -179,4 +183,19 @@ fn the_readme_command_line_simulates_plans_and_reports_stage_times() {
     assert_eq!(plan["floorplan"]["input"]["points"], 150000);
     assert_eq!(plan["floorplan"]["input"]["scans"], 1);
     assert!(std::fs::read_to_string(&svg).unwrap().starts_with("<svg"));
+    // The IFC has a storey per story of the GeoJSON; the schedule a row per room.
+    let ifc = std::fs::read_to_string(dir.join("plan.ifc")).unwrap();
+    let kinds = |kind: &str| {
+        plan["features"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|f| f["properties"]["kind"] == kind)
+            .count()
+    };
+    assert_eq!(ifc.matches("=IFCBUILDINGSTOREY(").count(), kinds("story"));
+    assert_eq!(ifc.matches("=IFCSPACE(").count(), kinds("room"));
+    let csv = std::fs::read_to_string(dir.join("rooms.csv")).unwrap();
+    assert!(csv.starts_with("level,room,area_m2,"), "{csv}");
+    assert_eq!(csv.lines().count(), 1 + kinds("room"), "{csv}");
 }

@@ -400,7 +400,7 @@ async fn every_answer_matches_the_document() {
     .await;
     // Results, and their refusals: not ready, other tenant, bad id, no key.
     let bolt = |p: &str| anon.get(s.url(p)).bearer_auth("bolt-secret-key-0002");
-    for file in ["plan.geojson", "plan.svg", "plan.dxf"] {
+    for file in asbuilt_plan::io::outputs::OUTPUTS.iter().map(|o| o.file) {
         let ok = format!("/v1/jobs/{good}/{file}");
         let (status, _) = call(&mut contract, "GET", &ok, s.get(&ok)).await;
         assert_eq!(status, 200);

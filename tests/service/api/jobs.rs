@@ -91,6 +91,30 @@ async fn upload_queue_work_and_fetch_results() {
             "{v}"
         );
     }
+    // Every output of the list is linked and served with its media type; the files that do
+    // not carry timings are exactly what the writer makes of the fake plan.
+    let links = done["links"].as_object().unwrap();
+    assert_eq!(links.len(), 2 + asbuilt_plan::io::outputs::OUTPUTS.len());
+    let plan = asbuilt::worker::fake::square_plan(42);
+    for o in &asbuilt_plan::io::outputs::OUTPUTS {
+        let link = links[o.name].as_str().unwrap();
+        assert_eq!(link, format!("/v1/jobs/{id}/{}", o.file));
+        let res = s.get(link).send().await.unwrap();
+        assert_eq!(res.status(), 200, "{link}");
+        assert_eq!(res.headers()["content-type"], o.media_type, "{link}");
+        let body = res.bytes().await.unwrap();
+        if matches!(o.name, "ifc" | "rooms") {
+            assert_eq!(body, (o.write)(&plan).unwrap(), "{link}");
+        }
+    }
+    let csv = s
+        .get(&format!("/v1/jobs/{id}/rooms.csv"))
+        .send()
+        .await
+        .unwrap();
+    let csv = csv.text().await.unwrap();
+    assert_eq!(csv.lines().count(), 3, "{csv}");
+    assert!(csv.contains("\r\n0,L0-R1,7.35,"), "{csv}");
 }
 
 #[tokio::test]
@@ -350,7 +374,13 @@ async fn api_keys_separate_tenants() {
     )
     .await;
     s.key = Some("bolt-secret-key-0002".into());
-    for path in ["", "/events", "/plan.geojson", "/plan.svg", "/plan.dxf"] {
+    let results = asbuilt_plan::io::outputs::OUTPUTS
+        .iter()
+        .map(|o| format!("/{}", o.file));
+    for path in ["".to_string(), "/events".to_string()]
+        .into_iter()
+        .chain(results)
+    {
         expect_error(
             s.get(&format!("/v1/jobs/{id}{path}")).send().await.unwrap(),
             404,

@@ -4,14 +4,19 @@
 //! R12 is written by hand because it is the one DXF version every CAD reader opens and it is
 //! small: group-code/value line pairs, no handles, no object section. Layers:
 //! - `STORY_k`: story k's floor outline, one closed POLYLINE per ring (R12 has no LWPOLYLINE);
-//! - `WALLS_k`: story k's fitted walls, LINE entities for lines and ARC (or CIRCLE) for arcs.
+//! - `WALLS_k`: story k's fitted walls, LINE entities for lines and ARC (or CIRCLE) for arcs;
+//! - where the story has them: `ROOMS_k`, each room's rings as closed POLYLINEs and its id and
+//!   area as two TEXTs; `DOORS_k`, each door's gap as a LINE with its leaf (LINE) and swing
+//!   (ARC), each opening's gap as a LINE; `WINDOWS_k`, each window as a LINE;
+//!   `WALL_CENTERLINES_k`, each wall with thickness as a two-vertex POLYLINE along its centre
+//!   line whose width is the wall's thickness.
 //!
 //! Everything lies at the story's floor height, in world coordinates (origin added back).
 
 use std::fmt::Write;
 
 use crate::geom::{cross, dot, sub, P2};
-use crate::plan::{FloorPlan, StoryPlan, Wall, WallModel};
+use crate::plan::{DoorKind, FloorPlan, StoryPlan, Wall, WallModel};
 
 /// Why DXF could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -127,6 +132,9 @@ fn extents(plan: &FloorPlan) -> Option<([f64; 3], [f64; 3])> {
             .flat_map(|p| std::iter::once(&p.exterior).chain(&p.holes))
             .flatten()
             .chain(s.walls.iter().flat_map(|w| &w.points))
+            // Exterior walls and their windows lie outside the floor.
+            .chain(s.spaces.walls.iter().flat_map(|w| [&w.a, &w.b]))
+            .chain(s.spaces.windows.iter().flat_map(|w| [&w.a, &w.b]))
             .map(move |&p| world(plan, p, z))
     });
     let first = points.next()?;
@@ -155,7 +163,8 @@ fn tables(out: &mut Out, plan: &FloorPlan) {
     out.pair(0, "ENDTAB");
     out.pair(0, "TABLE");
     out.pair(2, "LAYER");
-    out.pair(70, 1 + 2 * plan.stories.len());
+    let spaces: Vec<(String, u16)> = plan.stories.iter().flat_map(space_layers).collect();
+    out.pair(70, 1 + 2 * plan.stories.len() + spaces.len());
     // Layer "0" must exist in every drawing.
     layer(out, "0", 7);
     for story in &plan.stories {
@@ -163,8 +172,28 @@ fn tables(out: &mut Out, plan: &FloorPlan) {
         layer(out, &story_layer(story.level), 8);
         layer(out, &walls_layer(story.level), 7);
     }
+    for (name, color) in &spaces {
+        layer(out, name, *color);
+    }
     out.pair(0, "ENDTAB");
     out.pair(0, "ENDSEC");
+}
+
+/// The layers a story's rooms, doors, windows and centre-line walls go on, with their colours
+/// (ACI 3 green, 1 red, 5 blue, 9 light grey); only those the story has, so a plan without
+/// rooms is drawn as before.
+fn space_layers(story: &StoryPlan) -> Vec<(String, u16)> {
+    let s = &story.spaces;
+    let k = story.level;
+    [
+        (!s.rooms.is_empty(), format!("ROOMS_{k}"), 3),
+        (!s.doors.is_empty(), format!("DOORS_{k}"), 1),
+        (!s.windows.is_empty(), format!("WINDOWS_{k}"), 5),
+        (!s.walls.is_empty(), format!("WALL_CENTERLINES_{k}"), 9),
+    ]
+    .into_iter()
+    .filter_map(|(has, name, color)| has.then_some((name, color)))
+    .collect()
 }
 
 fn layer(out: &mut Out, name: &str, color: u16) {
@@ -180,29 +209,155 @@ fn story_entities(out: &mut Out, plan: &FloorPlan, story: &StoryPlan) -> Result<
     let layer = story_layer(story.level);
     for polygon in &story.polygons {
         for ring in std::iter::once(&polygon.exterior).chain(&polygon.holes) {
-            if ring.len() < 3 {
-                continue;
+            if ring.len() >= 3 {
+                closed_polyline(out, plan, ring, z, &layer)?;
             }
-            // A 2D polyline: the elevation sits in the header's 30 group; flag 1 closes it.
-            out.pair(0, "POLYLINE");
-            out.pair(8, &layer);
-            out.pair(66, 1);
-            out.point(10, [0.0, 0.0, z])?;
-            out.pair(70, 1);
-            let closed_twice = ring.len() > 3 && ring.first() == ring.last();
-            let n = ring.len() - usize::from(closed_twice);
-            for &p in &ring[..n] {
-                out.pair(0, "VERTEX");
-                out.pair(8, &layer);
-                out.point(10, world(plan, p, z))?;
-            }
-            out.pair(0, "SEQEND");
-            out.pair(8, &layer);
         }
     }
     let layer = walls_layer(story.level);
     for wall in &story.walls {
         wall_entities(out, plan, wall, z, &layer)?;
+    }
+    space_entities(out, plan, story, z)
+}
+
+/// A closed 2D POLYLINE through `ring` at height `z`.
+fn closed_polyline(
+    out: &mut Out,
+    plan: &FloorPlan,
+    ring: &[P2],
+    z: f64,
+    layer: &str,
+) -> Result<(), DxfError> {
+    // A 2D polyline: the elevation sits in the header's 30 group; flag 1 closes it.
+    out.pair(0, "POLYLINE");
+    out.pair(8, layer);
+    out.pair(66, 1);
+    out.point(10, [0.0, 0.0, z])?;
+    out.pair(70, 1);
+    let closed_twice = ring.len() > 3 && ring.first() == ring.last();
+    let n = ring.len() - usize::from(closed_twice);
+    for &p in &ring[..n] {
+        out.pair(0, "VERTEX");
+        out.pair(8, layer);
+        out.point(10, world(plan, p, z))?;
+    }
+    out.pair(0, "SEQEND");
+    out.pair(8, layer);
+    Ok(())
+}
+
+fn line(
+    out: &mut Out,
+    plan: &FloorPlan,
+    a: P2,
+    b: P2,
+    z: f64,
+    layer: &str,
+) -> Result<(), DxfError> {
+    out.pair(0, "LINE");
+    out.pair(8, layer);
+    out.point(10, world(plan, a, z))?;
+    out.point(11, world(plan, b, z))
+}
+
+/// One line of text centred on `at`, `height` metres tall.
+fn text(
+    out: &mut Out,
+    at: [f64; 3],
+    height: f64,
+    value: &str,
+    layer: &str,
+) -> Result<(), DxfError> {
+    out.pair(0, "TEXT");
+    out.pair(8, layer);
+    out.point(10, at)?;
+    out.real(40, height)?;
+    // R12 text is one line of the drawing's code page: keep to printable ASCII.
+    let value: String = value
+        .chars()
+        .map(|c| if (' '..='~').contains(&c) { c } else { '?' })
+        .collect();
+    out.pair(1, value);
+    out.pair(72, 1);
+    out.point(11, at)?;
+    out.pair(73, 2);
+    Ok(())
+}
+
+/// Text height of room labels, metres: readable at 1:100 on a plotted plan.
+const LABEL_HEIGHT: f64 = 0.25;
+
+fn space_entities(
+    out: &mut Out,
+    plan: &FloorPlan,
+    story: &StoryPlan,
+    z: f64,
+) -> Result<(), DxfError> {
+    let s = &story.spaces;
+    let k = story.level;
+    let layer = format!("ROOMS_{k}");
+    for room in &s.rooms {
+        for ring in std::iter::once(&room.polygon.exterior).chain(&room.polygon.holes) {
+            if ring.len() >= 3 {
+                closed_polyline(out, plan, ring, z, &layer)?;
+            }
+        }
+        if let Some(p) = crate::io::svg::label_point(&room.polygon) {
+            let h = LABEL_HEIGHT;
+            let at = |dy: f64| world(plan, [p[0], p[1] + dy], z);
+            text(out, at(0.6 * h), h, &room.id, &layer)?;
+            text(
+                out,
+                at(-0.6 * h),
+                h,
+                &format!("{:.2} m2", room.area),
+                &layer,
+            )?;
+        }
+    }
+    let layer = format!("DOORS_{k}");
+    for door in &s.doors {
+        if door.a == door.b {
+            continue;
+        }
+        line(out, plan, door.a, door.b, z, &layer)?;
+        if door.kind == DoorKind::Opening {
+            continue;
+        }
+        // Hinged at a, the leaf open a quarter turn to the left, the swing back to b.
+        let along = sub(door.b, door.a);
+        let open = [door.a[0] - along[1], door.a[1] + along[0]];
+        line(out, plan, door.a, open, z, &layer)?;
+        let start = along[1].atan2(along[0]).to_degrees();
+        out.pair(0, "ARC");
+        out.pair(8, &layer);
+        out.point(10, world(plan, door.a, z))?;
+        out.real(40, crate::geom::dist(door.a, door.b))?;
+        out.real(50, start.rem_euclid(360.0))?;
+        out.real(51, (start + 90.0).rem_euclid(360.0))?;
+    }
+    let layer = format!("WINDOWS_{k}");
+    for window in s.windows.iter().filter(|w| w.a != w.b) {
+        line(out, plan, window.a, window.b, z, &layer)?;
+    }
+    let layer = format!("WALL_CENTERLINES_{k}");
+    for wall in s.walls.iter().filter(|w| w.a != w.b) {
+        // An open 2D polyline whose constant width (groups 40, 41) is the wall's thickness.
+        out.pair(0, "POLYLINE");
+        out.pair(8, &layer);
+        out.pair(66, 1);
+        out.point(10, [0.0, 0.0, z])?;
+        out.pair(70, 0);
+        out.real(40, wall.thickness)?;
+        out.real(41, wall.thickness)?;
+        for p in [wall.a, wall.b] {
+            out.pair(0, "VERTEX");
+            out.pair(8, &layer);
+            out.point(10, world(plan, p, z))?;
+        }
+        out.pair(0, "SEQEND");
+        out.pair(8, &layer);
     }
     Ok(())
 }
@@ -507,5 +662,98 @@ print(json.dumps(out))
             assert_eq!(arc[0], 2.0);
             assert!((arc[2].as_f64().unwrap() - 90.0).abs() < 1e-6);
         }
+    }
+
+    /// ezdxf reads the rooms, doors, windows and centre-line walls back, labels included.
+    #[test]
+    fn ezdxf_reads_rooms_doors_and_walls() {
+        let file = crate::io::outputs::python::temp_file(
+            ".dxf",
+            &to_dxf(&crate::io::geojson::tests::spaces_plan()).unwrap(),
+        );
+        let script = r#"
+import json, sys, ezdxf
+doc = ezdxf.readfile(sys.argv[1])
+auditor = doc.audit()
+msp = doc.modelspace()
+out = {"errors": len(auditor.errors), "layers": sorted(l.dxf.name for l in doc.layers), "counts": {},
+       "texts": [[t.dxf.text, t.dxf.layer, t.dxf.align_point.x, t.dxf.align_point.y] for t in msp.query("TEXT")],
+       "widths": [[p.dxf.default_start_width, p.dxf.default_end_width, p.is_closed, len(p.vertices)]
+                  for p in msp.query("POLYLINE") if p.dxf.layer.startswith("WALL_CENTERLINES")],
+       "swings": [[a.dxf.center.x, a.dxf.center.y, a.dxf.radius, a.dxf.start_angle, a.dxf.end_angle]
+                  for a in msp.query("ARC") if a.dxf.layer.startswith("DOORS")]}
+for e in msp:
+    key = e.dxftype() + "@" + e.dxf.layer
+    out["counts"][key] = out["counts"].get(key, 0) + 1
+print(json.dumps(out))
+"#;
+        let Some(v) = crate::io::outputs::python::run_json(
+            &["ezdxf"],
+            script,
+            &[file.path().to_str().unwrap()],
+        ) else {
+            return;
+        };
+        assert_eq!(v["errors"], 0);
+        for name in [
+            "ROOMS_0",
+            "DOORS_0",
+            "WINDOWS_0",
+            "WALL_CENTERLINES_0",
+            "ROOMS_1",
+            "WALL_CENTERLINES_1",
+        ] {
+            assert!(
+                v["layers"].as_array().unwrap().iter().any(|l| l == name),
+                "{name}: {}",
+                v["layers"]
+            );
+        }
+        assert!(!v["layers"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|l| l == "DOORS_1"));
+        let c = &v["counts"];
+        // Three rooms and R1's column, each a closed ring; two labels per room.
+        assert_eq!(c["POLYLINE@ROOMS_0"], 4);
+        assert_eq!(c["TEXT@ROOMS_0"], 6);
+        assert_eq!(c["POLYLINE@ROOMS_1"], 1);
+        // Two doors (gap and leaf) and the opening's gap; a swing per door.
+        assert_eq!(c["LINE@DOORS_0"], 5);
+        assert_eq!(c["ARC@DOORS_0"], 2);
+        assert_eq!(c["LINE@WINDOWS_0"], 1);
+        assert_eq!(c["POLYLINE@WALL_CENTERLINES_0"], 6);
+        assert_eq!(c["POLYLINE@WALL_CENTERLINES_1"], 4);
+        let texts = v["texts"].as_array().unwrap();
+        assert!(texts.iter().any(|t| t[0] == "L0-R1" && t[1] == "ROOMS_0"));
+        assert!(texts.iter().any(|t| t[0] == "35.48 m2"));
+        assert!(texts
+            .iter()
+            .any(|t| t[0] == "60.00 m2" && t[1] == "ROOMS_1"));
+        // Labels sit inside their room: R2 is x 6.06..10, y 0..3.45 (plus the origin).
+        let r2 = texts.iter().find(|t| t[0] == "L0-R2").unwrap();
+        let (x, y) = (
+            r2[2].as_f64().unwrap() - 500_000.0,
+            r2[3].as_f64().unwrap() - 5_400_000.0,
+        );
+        assert!(
+            (6.06..10.0).contains(&x) && (0.0..3.45).contains(&y),
+            "{r2}"
+        );
+        let widths = v["widths"].as_array().unwrap();
+        assert_eq!(widths[0], serde_json::json!([0.12, 0.12, false, 2]));
+        assert_eq!(widths[2], serde_json::json!([0.3, 0.3, false, 2]));
+        // D1 is hinged at (6, 1) and runs north: its swing spans 90° to 180°.
+        let s = &v["swings"][0];
+        assert_eq!(
+            (s[0].as_f64().unwrap(), s[1].as_f64().unwrap()),
+            (500_006.0, 5_400_001.0)
+        );
+        assert!((s[2].as_f64().unwrap() - 0.9).abs() < 1e-9);
+        assert!(
+            (s[3].as_f64().unwrap() - 90.0).abs() < 1e-6
+                && (s[4].as_f64().unwrap() - 180.0).abs() < 1e-6
+        );
     }
 }

@@ -6,7 +6,9 @@
 use serde_json::{json, Map, Value};
 
 use crate::geom::{ring_signed_area, P2};
-use crate::plan::{FloorPlan, Polygon, StoryPlan, Wall, WallModel};
+use crate::plan::{
+    Door, DoorKind, FloorPlan, Polygon, Room, StoryPlan, Wall, WallCentre, WallModel, Window,
+};
 
 /// The `floorplan.version` this writer produces.
 pub const VERSION: u32 = 1;
@@ -26,6 +28,7 @@ pub fn to_geojson(plan: &FloorPlan) -> Value {
         if emit_samples {
             features.push(samples_feature(plan, story));
         }
+        features.extend(space_features(plan, story));
     }
     let timings: Map<String, Value> = plan
         .timings_ms
@@ -220,6 +223,112 @@ fn wall_feature(plan: &FloorPlan, level: usize, wall: &Wall) -> Option<Value> {
     ))
 }
 
+/// A story's rooms, doors and openings, windows and centre-line walls, in that order.
+fn space_features<'a>(
+    plan: &'a FloorPlan,
+    story: &'a StoryPlan,
+) -> impl Iterator<Item = Value> + 'a {
+    let s = &story.spaces;
+    let level = story.level;
+    let rooms = s
+        .rooms
+        .iter()
+        .filter_map(move |r| room_feature(plan, level, r));
+    let doors = s
+        .doors
+        .iter()
+        .filter_map(move |d| door_feature(plan, level, d));
+    let windows = s
+        .windows
+        .iter()
+        .filter_map(move |w| window_feature(plan, level, w));
+    let walls = s
+        .walls
+        .iter()
+        .filter_map(move |w| centre_feature(plan, level, w));
+    rooms.chain(doors).chain(windows).chain(walls)
+}
+
+/// A world height, rounded.
+fn height(plan: &FloorPlan, z: f64) -> f64 {
+    round4(z + plan.origin[2])
+}
+
+/// A room as a Polygon; `None` when its exterior is degenerate.
+fn room_feature(plan: &FloorPlan, level: usize, room: &Room) -> Option<Value> {
+    let rings = polygon_rings(plan, &room.polygon)?;
+    Some(feature(
+        json!({"type": "Polygon", "coordinates": rings}),
+        json!({
+            "kind": "room",
+            "level": level,
+            "id": room.id,
+            "area_m2": round4(room.area),
+            "perimeter_m": round4(room.perimeter),
+            "floor_z": height(plan, room.floor_z),
+            "ceiling_z": height(plan, room.ceiling_z),
+            "height_m": round4(room.ceiling_z - room.floor_z),
+            "scanners": room.scanners,
+            "neighbours": room.neighbours,
+        }),
+    ))
+}
+
+/// A segment as a LineString; `None` when its ends meet after rounding.
+fn segment(plan: &FloorPlan, a: P2, b: P2) -> Option<Value> {
+    let (a, b) = (position(plan, a), position(plan, b));
+    (a != b).then(|| json!({"type": "LineString", "coordinates": [a, b]}))
+}
+
+fn door_feature(plan: &FloorPlan, level: usize, door: &Door) -> Option<Value> {
+    let (kind, head) = match door.kind {
+        DoorKind::Door => ("door", door.head_z.map(|z| height(plan, z))),
+        // An opening has no lintel, whatever was measured above it.
+        DoorKind::Opening => ("opening", None),
+    };
+    Some(feature(
+        segment(plan, door.a, door.b)?,
+        json!({
+            "kind": kind,
+            "level": level,
+            "id": door.id,
+            "width_m": round4(door.width),
+            "head_z": head,
+            "depth_m": round4(door.depth),
+            "rooms": door.rooms,
+        }),
+    ))
+}
+
+fn window_feature(plan: &FloorPlan, level: usize, window: &Window) -> Option<Value> {
+    Some(feature(
+        segment(plan, window.a, window.b)?,
+        json!({
+            "kind": "window",
+            "level": level,
+            "id": window.id,
+            "width_m": round4(window.width),
+            "sill_z": height(plan, window.sill_z),
+            "head_z": height(plan, window.head_z),
+            "room": window.room,
+        }),
+    ))
+}
+
+fn centre_feature(plan: &FloorPlan, level: usize, wall: &WallCentre) -> Option<Value> {
+    Some(feature(
+        segment(plan, wall.a, wall.b)?,
+        json!({
+            "kind": "wall_centerline",
+            "level": level,
+            "id": wall.id,
+            "thickness_m": round4(wall.thickness),
+            "exterior": wall.exterior,
+            "rooms": wall.rooms,
+        }),
+    ))
+}
+
 fn samples_feature(plan: &FloorPlan, story: &StoryPlan) -> Value {
     let points: Vec<[f64; 2]> = story.samples.iter().map(|&p| position(plan, p)).collect();
     feature(
@@ -231,7 +340,8 @@ fn samples_feature(plan: &FloorPlan, story: &StoryPlan) -> Value {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::plan::InputSummary;
+    use crate::geom::dist;
+    use crate::plan::{Door, DoorKind, InputSummary, Room, Spaces, WallCentre, Window};
 
     pub(crate) fn square(x0: f64, y0: f64, side: f64) -> Vec<P2> {
         vec![
@@ -301,6 +411,200 @@ pub(crate) mod tests {
             stories,
             notes: vec!["a note".into()],
         }
+    }
+
+    fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Vec<P2> {
+        vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
+    }
+
+    fn room(id: &str, polygon: Polygon, z: (f64, f64), neighbours: &[&str]) -> Room {
+        let rings = std::iter::once(&polygon.exterior).chain(&polygon.holes);
+        let perimeter = rings
+            .map(|r| {
+                (0..r.len())
+                    .map(|i| dist(r[i], r[(i + 1) % r.len()]))
+                    .sum::<f64>()
+            })
+            .sum();
+        Room {
+            id: id.into(),
+            area: ring_signed_area(&polygon.exterior).abs()
+                - polygon
+                    .holes
+                    .iter()
+                    .map(|h| ring_signed_area(h).abs())
+                    .sum::<f64>(),
+            perimeter,
+            polygon,
+            floor_z: z.0,
+            ceiling_z: z.1,
+            scanners: vec![],
+            neighbours: neighbours.iter().map(|n| n.to_string()).collect(),
+        }
+    }
+
+    fn centre(id: &str, a: P2, b: P2, thickness: f64, rooms: [Option<&str>; 2]) -> WallCentre {
+        WallCentre {
+            id: id.into(),
+            a,
+            b,
+            thickness,
+            exterior: rooms.contains(&None),
+            rooms: rooms.map(|r| r.map(String::from)),
+        }
+    }
+
+    /// The four exterior walls (30 cm assumed) around the free space `[0, w] × [0, h]`.
+    fn exterior(level: usize, w: f64, h: f64, n0: usize, rooms: [&str; 4]) -> Vec<WallCentre> {
+        let t = 0.3;
+        let o = t / 2.0;
+        let corners = [[-o, -o], [w + o, -o], [w + o, h + o], [-o, h + o]];
+        (0..4)
+            .map(|i| {
+                centre(
+                    &format!("L{level}-C{}", n0 + i),
+                    corners[i],
+                    corners[(i + 1) % 4],
+                    t,
+                    // Walls run counter-clockwise round the story: the room is on the left.
+                    [Some(rooms[i]), None],
+                )
+            })
+            .collect()
+    }
+
+    /// Two stories, far from the origin. Level 0 (10 × 6 m free space) is split by a 12 cm wall
+    /// at x = 6 and a 10 cm wall at y = 3.5 into three rooms: R1 west (with a 40 cm column),
+    /// R2 south-east and R3 north-east. Doors join R1 to R2 and R3, an opening joins R2 and R3,
+    /// and a window in the south wall lights R1. Level 1 is one 10 × 6 m room.
+    pub(crate) fn spaces_plan() -> FloorPlan {
+        let mut s0 = story(
+            0,
+            vec![Polygon {
+                exterior: rect(0.0, 0.0, 10.0, 6.0),
+                holes: vec![],
+            }],
+            vec![
+                line_wall([0.0, 0.0], [10.0, 0.0]),
+                line_wall([10.0, 0.0], [10.0, 6.0]),
+            ],
+        );
+        let mut column = rect(2.0, 2.0, 2.4, 2.4);
+        column.reverse();
+        s0.spaces = Spaces {
+            rooms: vec![
+                room(
+                    "L0-R1",
+                    Polygon {
+                        exterior: rect(0.0, 0.0, 5.94, 6.0),
+                        holes: vec![column],
+                    },
+                    (0.0, 2.5),
+                    &["L0-R2", "L0-R3"],
+                ),
+                room(
+                    "L0-R2",
+                    Polygon {
+                        exterior: rect(6.06, 0.0, 10.0, 3.45),
+                        holes: vec![],
+                    },
+                    (0.0, 2.5),
+                    &["L0-R1", "L0-R3"],
+                ),
+                room(
+                    "L0-R3",
+                    Polygon {
+                        exterior: rect(6.06, 3.55, 10.0, 6.0),
+                        holes: vec![],
+                    },
+                    (0.02, 2.45),
+                    &["L0-R1", "L0-R2"],
+                ),
+            ],
+            doors: vec![
+                Door {
+                    id: "L0-D1".into(),
+                    kind: DoorKind::Door,
+                    a: [6.0, 1.0],
+                    b: [6.0, 1.9],
+                    width: 0.9,
+                    head_z: Some(2.05),
+                    depth: 0.12,
+                    rooms: [Some("L0-R1".into()), Some("L0-R2".into())],
+                },
+                Door {
+                    id: "L0-D2".into(),
+                    kind: DoorKind::Opening,
+                    a: [7.0, 3.5],
+                    b: [8.2, 3.5],
+                    width: 1.2,
+                    head_z: None,
+                    depth: 0.1,
+                    rooms: [Some("L0-R2".into()), Some("L0-R3".into())],
+                },
+                Door {
+                    id: "L0-D3".into(),
+                    kind: DoorKind::Door,
+                    a: [6.0, 4.2],
+                    b: [6.0, 5.1],
+                    width: 0.9,
+                    head_z: None,
+                    depth: 0.12,
+                    rooms: [Some("L0-R1".into()), Some("L0-R3".into())],
+                },
+            ],
+            windows: vec![Window {
+                id: "L0-W1".into(),
+                a: [1.0, -0.15],
+                b: [2.5, -0.15],
+                width: 1.5,
+                sill_z: 0.9,
+                head_z: 2.1,
+                room: Some("L0-R1".into()),
+            }],
+            walls: [
+                vec![
+                    centre(
+                        "L0-C1",
+                        [6.0, 0.0],
+                        [6.0, 6.0],
+                        0.12,
+                        [Some("L0-R1"), Some("L0-R2")],
+                    ),
+                    centre(
+                        "L0-C2",
+                        [6.06, 3.5],
+                        [10.0, 3.5],
+                        0.1,
+                        [Some("L0-R3"), Some("L0-R2")],
+                    ),
+                ],
+                exterior(0, 10.0, 6.0, 3, ["L0-R1", "L0-R2", "L0-R3", "L0-R1"]),
+            ]
+            .concat(),
+        };
+        let mut s1 = story(
+            1,
+            vec![Polygon {
+                exterior: rect(0.0, 0.0, 10.0, 6.0),
+                holes: vec![],
+            }],
+            vec![],
+        );
+        s1.spaces = Spaces {
+            rooms: vec![room(
+                "L1-R1",
+                Polygon {
+                    exterior: rect(0.0, 0.0, 10.0, 6.0),
+                    holes: vec![],
+                },
+                (3.0, 5.5),
+                &[],
+            )],
+            walls: exterior(1, 10.0, 6.0, 1, ["L1-R1"; 4]),
+            ..Default::default()
+        };
+        plan([500_000.0, 5_400_000.0, 100.0], vec![s0, s1])
     }
 
     fn reparse(plan: &FloorPlan) -> Value {
@@ -558,5 +862,213 @@ pub(crate) mod tests {
         assert_eq!(s["geometry"]["type"], "MultiPolygon");
         assert_eq!(s["geometry"]["coordinates"].as_array().unwrap().len(), 0);
         assert!(kinds(&doc, "wall").is_empty());
+    }
+
+    #[test]
+    fn spaces_add_features_and_leave_the_old_ones_alone() {
+        let full = reparse(&spaces_plan());
+        let mut bare = spaces_plan();
+        for s in &mut bare.stories {
+            s.spaces = Spaces::default();
+        }
+        let bare = reparse(&bare);
+        let new = ["room", "door", "opening", "window", "wall_centerline"];
+        let old: Vec<&Value> = full["features"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|f| !new.contains(&f["properties"]["kind"].as_str().unwrap()))
+            .collect();
+        assert_eq!(
+            old,
+            bare["features"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .collect::<Vec<_>>()
+        );
+        assert_eq!(full["floorplan"], bare["floorplan"]);
+        let counts: Vec<usize> = new.iter().map(|k| kinds(&full, k).len()).collect();
+        assert_eq!(counts, [4, 2, 1, 1, 10]);
+    }
+
+    /// Exactly the properties `docs/contract.md` lists, world coordinates and world heights.
+    #[test]
+    fn space_features_follow_the_contract() {
+        let doc = reparse(&spaces_plan());
+        let keys = |f: &Value| {
+            let mut k: Vec<String> = f["properties"]
+                .as_object()
+                .unwrap()
+                .keys()
+                .cloned()
+                .collect();
+            k.sort();
+            k
+        };
+        let sorted = |k: &[&str]| {
+            let mut k: Vec<String> = k.iter().map(|s| s.to_string()).collect();
+            k.sort();
+            k
+        };
+        let room_keys = sorted(&[
+            "kind",
+            "level",
+            "id",
+            "area_m2",
+            "perimeter_m",
+            "floor_z",
+            "ceiling_z",
+            "height_m",
+            "scanners",
+            "neighbours",
+        ]);
+        let door_keys = sorted(&[
+            "kind", "level", "id", "width_m", "head_z", "depth_m", "rooms",
+        ]);
+        let window_keys = sorted(&["kind", "level", "id", "width_m", "sill_z", "head_z", "room"]);
+        let wall_keys = sorted(&["kind", "level", "id", "thickness_m", "exterior", "rooms"]);
+        for (kind, want) in [
+            ("room", &room_keys),
+            ("door", &door_keys),
+            ("opening", &door_keys),
+            ("window", &window_keys),
+            ("wall_centerline", &wall_keys),
+        ] {
+            for f in kinds(&doc, kind) {
+                assert_eq!(&keys(f), want, "{kind}");
+                let ty = if kind == "room" {
+                    "Polygon"
+                } else {
+                    "LineString"
+                };
+                assert_eq!(f["geometry"]["type"], ty, "{kind}");
+            }
+        }
+
+        let rooms = kinds(&doc, "room");
+        let r1 = rooms[0];
+        assert_eq!(r1["properties"]["id"], "L0-R1");
+        assert_eq!(r1["properties"]["area_m2"], 35.48);
+        assert_eq!(r1["properties"]["perimeter_m"], 25.48);
+        assert_eq!(r1["properties"]["floor_z"], 100.0);
+        assert_eq!(r1["properties"]["ceiling_z"], 102.5);
+        assert_eq!(r1["properties"]["height_m"], 2.5);
+        assert_eq!(r1["properties"]["neighbours"], json!(["L0-R2", "L0-R3"]));
+        let rings = r1["geometry"]["coordinates"].as_array().unwrap();
+        assert_eq!(rings.len(), 2);
+        // Areas about the ring's first corner: far from the origin, f64 would lose them.
+        let area = |ring: &Value| {
+            let pts = coords(ring);
+            let local: Vec<P2> = pts
+                .iter()
+                .map(|p| [p[0] - pts[0][0], p[1] - pts[0][1]])
+                .collect();
+            ring_signed_area(&local[..local.len() - 1])
+        };
+        assert!((area(&rings[0]) - 35.64).abs() < 1e-6);
+        assert!((area(&rings[1]) + 0.16).abs() < 1e-6);
+        assert_eq!(coords(&rings[0])[0], [500_000.0, 5_400_000.0]);
+        let r3 = rooms[2];
+        assert_eq!(r3["properties"]["floor_z"], 100.02);
+        assert_eq!(r3["properties"]["height_m"], 2.43);
+        assert_eq!(rooms[3]["properties"]["level"], 1);
+        assert_eq!(rooms[3]["properties"]["floor_z"], 103.0);
+
+        let doors = kinds(&doc, "door");
+        assert_eq!(doors[0]["properties"]["id"], "L0-D1");
+        assert_eq!(doors[0]["properties"]["head_z"], 102.05);
+        assert_eq!(doors[0]["properties"]["width_m"], 0.9);
+        assert_eq!(doors[0]["properties"]["depth_m"], 0.12);
+        assert_eq!(doors[0]["properties"]["rooms"], json!(["L0-R1", "L0-R2"]));
+        assert_eq!(
+            coords(&doors[0]["geometry"]["coordinates"]),
+            [[500_006.0, 5_400_001.0], [500_006.0, 5_400_001.9]]
+        );
+        assert_eq!(doors[1]["properties"]["head_z"], Value::Null);
+        let opening = kinds(&doc, "opening")[0];
+        assert_eq!(opening["properties"]["id"], "L0-D2");
+        assert_eq!(opening["properties"]["head_z"], Value::Null);
+
+        let window = kinds(&doc, "window")[0];
+        assert_eq!(window["properties"]["sill_z"], 100.9);
+        assert_eq!(window["properties"]["head_z"], 102.1);
+        assert_eq!(window["properties"]["room"], "L0-R1");
+
+        let walls = kinds(&doc, "wall_centerline");
+        assert_eq!(walls[0]["properties"]["thickness_m"], 0.12);
+        assert_eq!(walls[0]["properties"]["exterior"], false);
+        assert_eq!(walls[2]["properties"]["exterior"], true);
+        assert_eq!(walls[2]["properties"]["rooms"], json!(["L0-R1", null]));
+        assert_eq!(
+            coords(&walls[2]["geometry"]["coordinates"])[0],
+            [499_999.85, 5_399_999.85]
+        );
+    }
+
+    #[test]
+    fn degenerate_spaces_are_dropped_not_written() {
+        let mut p = spaces_plan();
+        let s = &mut p.stories[0].spaces;
+        s.rooms[0].polygon.exterior.truncate(2);
+        s.doors[0].b = s.doors[0].a;
+        s.windows[0].a = [f64::NAN, 0.0];
+        s.walls[0].b = s.walls[0].a;
+        let doc = reparse(&p);
+        assert_eq!(kinds(&doc, "room").len(), 3);
+        assert_eq!(kinds(&doc, "door").len(), 1);
+        // NaN serialises as null; the feature stays, its coordinate says it is unknown.
+        assert_eq!(kinds(&doc, "window").len(), 1);
+        assert_eq!(kinds(&doc, "wall_centerline").len(), 9);
+    }
+
+    /// GEOS judges every room: valid, its written area as stated, inside its story and
+    /// overlapping no other room.
+    #[test]
+    fn rooms_are_valid_and_disjoint_under_geos() {
+        let text = to_geojson_string(&spaces_plan());
+        let file = crate::io::outputs::python::temp_file(".geojson", text.as_bytes());
+        let script = r#"
+import json, sys
+import shapely
+from shapely.geometry import shape
+doc = json.load(open(sys.argv[1]))
+rooms, stories = [], {}
+for f in doc["features"]:
+    p = f["properties"]
+    if p["kind"] == "story":
+        stories[p["level"]] = shape(f["geometry"])
+    if p["kind"] == "room":
+        rooms.append((p, shape(f["geometry"])))
+out = {"rooms": [], "overlap": 0.0}
+for p, g in rooms:
+    out["rooms"].append({
+        "id": p["id"], "valid": bool(g.is_valid), "reason": shapely.is_valid_reason(g),
+        "area": g.area, "stated": p["area_m2"], "perimeter": g.length,
+        "inside": g.difference(stories[p["level"]]).area,
+    })
+for i in range(len(rooms)):
+    for j in range(i + 1, len(rooms)):
+        if rooms[i][0]["level"] == rooms[j][0]["level"]:
+            out["overlap"] += rooms[i][1].intersection(rooms[j][1]).area
+print(json.dumps(out))
+"#;
+        let Some(v) = crate::io::outputs::python::run_json(
+            &["shapely"],
+            script,
+            &[file.path().to_str().unwrap()],
+        ) else {
+            return;
+        };
+        let rooms = v["rooms"].as_array().unwrap();
+        assert_eq!(rooms.len(), 4);
+        for r in rooms {
+            assert_eq!(r["valid"], true, "{r}");
+            let area = r["area"].as_f64().unwrap();
+            assert!((area - r["stated"].as_f64().unwrap()).abs() < 1e-3, "{r}");
+            assert!(r["inside"].as_f64().unwrap() < 1e-6, "{r}");
+        }
+        assert!(v["overlap"].as_f64().unwrap() < 1e-6, "{v}");
+        assert!((rooms[0]["perimeter"].as_f64().unwrap() - 25.48).abs() < 1e-6);
     }
 }

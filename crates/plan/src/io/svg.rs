@@ -2,13 +2,16 @@
 //!
 //! All panels share one scale so stories compare at a glance; a scale bar in metres sits under
 //! them. Floor area is filled (holes left empty by the even-odd rule), walls are dark strokes,
-//! and arc walls are drawn with SVG `A` commands so they stay round at any zoom.
+//! and arc walls are drawn with SVG `A` commands so they stay round at any zoom. Where the
+//! story has rooms, each is outlined and labelled with its id and area; walls with thickness
+//! are grey bands, doors a gap with their leaf and swing, openings a dashed gap, windows a
+//! blue pane in the wall.
 
 use std::fmt::Write;
 
-use crate::geom::P2;
+use crate::geom::{dist, normalize, point_segment_distance, sub, P2};
 use crate::io::dxf::arc_span;
-use crate::plan::{FloorPlan, StoryPlan, WallModel};
+use crate::plan::{DoorKind, FloorPlan, Polygon, StoryPlan, WallModel};
 
 /// What to draw beyond the plan itself.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -53,9 +56,17 @@ impl Bounds {
             .flatten();
         let walls = story.walls.iter().flat_map(|w| &w.points);
         let dots = story.samples.iter().filter(|_| samples);
+        // Exterior walls and their windows lie outside the floor.
+        let s = &story.spaces;
+        let spaces = s
+            .walls
+            .iter()
+            .flat_map(|w| [&w.a, &w.b])
+            .chain(s.windows.iter().flat_map(|w| [&w.a, &w.b]));
         let mut it = rings
             .chain(walls)
             .chain(dots)
+            .chain(spaces)
             .filter(|p| p[0].is_finite() && p[1].is_finite());
         let first = *it.next()?;
         Some(it.fold(
@@ -207,6 +218,7 @@ fn draw_story(
             d.trim_end()
         );
     }
+    draw_spaces(svg, story, panel);
     for wall in &story.walls {
         let Some(d) = wall_path(panel, wall) else {
             continue;
@@ -224,7 +236,168 @@ fn draw_story(
         }
         svg.push_str("</g>\n");
     }
+    draw_labels(svg, story, panel);
     svg.push_str("</g>\n");
+}
+
+/// Rooms, wall bands, doors, openings and windows, under the fitted walls.
+fn draw_spaces(svg: &mut String, story: &StoryPlan, panel: &Panel) {
+    let s = &story.spaces;
+    for room in &s.rooms {
+        let d = polygon_path(panel, &room.polygon);
+        if !d.is_empty() {
+            let _ = writeln!(
+                svg,
+                r##"<path class="room" data-id="{}" d="{d}" fill="#eef4e6" fill-rule="evenodd" stroke="#6d8f4e" stroke-width="1"/>"##,
+                xml(&room.id)
+            );
+        }
+    }
+    for wall in &s.walls {
+        let ((x0, y0), (x1, y1)) = (panel.px(wall.a), panel.px(wall.b));
+        let w = (wall.thickness * panel.scale).max(1.0);
+        let _ = writeln!(
+            svg,
+            r##"<line class="wall-body" x1="{x0:.2}" y1="{y0:.2}" x2="{x1:.2}" y2="{y1:.2}" stroke="#8a8a8a" stroke-width="{w:.2}"/>"##
+        );
+    }
+    for door in &s.doors {
+        let ((x0, y0), (x1, y1)) = (panel.px(door.a), panel.px(door.b));
+        // The gap: the wall band cleared where the door is.
+        let gap = ((door.depth * panel.scale).max(1.0)) + 2.0;
+        let _ = writeln!(
+            svg,
+            r##"<line class="door-gap" x1="{x0:.2}" y1="{y0:.2}" x2="{x1:.2}" y2="{y1:.2}" stroke="#ffffff" stroke-width="{gap:.2}"/>"##
+        );
+        match door.kind {
+            DoorKind::Opening => {
+                let _ = writeln!(
+                    svg,
+                    r##"<line class="opening" data-id="{}" x1="{x0:.2}" y1="{y0:.2}" x2="{x1:.2}" y2="{y1:.2}" stroke="#b45f06" stroke-width="1.2" stroke-dasharray="4 3"/>"##,
+                    xml(&door.id)
+                );
+            }
+            DoorKind::Door => {
+                let Some(d) = swing_path(panel, door.a, door.b) else {
+                    continue;
+                };
+                let _ = writeln!(
+                    svg,
+                    r##"<path class="door" data-id="{}" d="{d}" fill="none" stroke="#b45f06" stroke-width="1.2"/>"##,
+                    xml(&door.id)
+                );
+            }
+        }
+    }
+    for window in &s.windows {
+        let ((x0, y0), (x1, y1)) = (panel.px(window.a), panel.px(window.b));
+        let _ = writeln!(
+            svg,
+            r##"<line class="window" data-id="{}" x1="{x0:.2}" y1="{y0:.2}" x2="{x1:.2}" y2="{y1:.2}" stroke="#1c7ed6" stroke-width="3"/>"##,
+            xml(&window.id)
+        );
+    }
+}
+
+/// A door's leaf and swing: hinged at `a`, the leaf turned a quarter to the left of a → b,
+/// and the arc its free edge sweeps back to `b`.
+fn swing_path(panel: &Panel, a: P2, b: P2) -> Option<String> {
+    let along = sub(b, a);
+    let width = dist(a, b);
+    normalize(along)?;
+    let open = [a[0] - along[1], a[1] + along[0]];
+    let (xa, ya) = panel.px(a);
+    let (xo, yo) = panel.px(open);
+    let (xb, yb) = panel.px(b);
+    let r = width * panel.scale;
+    // From the open leaf clockwise in the plan back to b: a negative sweep on screen.
+    Some(format!(
+        "M{xa:.2} {ya:.2} L{xo:.2} {yo:.2} A{r:.2} {r:.2} 0 0 0 {xb:.2} {yb:.2}"
+    ))
+}
+
+/// Each room's id and area, at a point well inside it.
+fn draw_labels(svg: &mut String, story: &StoryPlan, panel: &Panel) {
+    for room in &story.spaces.rooms {
+        let Some(p) = label_point(&room.polygon) else {
+            continue;
+        };
+        let (x, y) = panel.px(p);
+        let _ = writeln!(
+            svg,
+            r##"<text class="room-label" x="{x:.2}" y="{y:.2}" font-size="11" fill="#2b3a1f" text-anchor="middle"><tspan x="{x:.2}" dy="-0.2em">{}</tspan><tspan x="{x:.2}" dy="1.2em">{:.1} m²</tspan></text>"##,
+            xml(&room.id),
+            room.area
+        );
+    }
+}
+
+/// Every ring of a polygon as one path (even-odd), or empty.
+fn polygon_path(panel: &Panel, polygon: &Polygon) -> String {
+    let mut d = String::new();
+    for ring in std::iter::once(&polygon.exterior).chain(&polygon.holes) {
+        if ring.len() < 3 {
+            continue;
+        }
+        for (i, &p) in ring.iter().enumerate() {
+            let (x, y) = panel.px(p);
+            let _ = write!(d, "{}{x:.2} {y:.2} ", if i == 0 { "M" } else { "L" });
+        }
+        d.push_str("Z ");
+    }
+    d.trim_end().to_string()
+}
+
+/// Text for XML content and attributes.
+fn xml(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// A point inside the polygon and far from its edges, for a label: the best middle of the
+/// inside runs of 15 horizontal lines across it. `None` for a degenerate polygon.
+pub(crate) fn label_point(polygon: &Polygon) -> Option<P2> {
+    let rings: Vec<&Vec<P2>> = std::iter::once(&polygon.exterior)
+        .chain(&polygon.holes)
+        .filter(|r| r.len() >= 3)
+        .collect();
+    let edges = || {
+        rings
+            .iter()
+            .flat_map(|r| (0..r.len()).map(move |i| (r[i], r[(i + 1) % r.len()])))
+    };
+    let (lo, hi) = polygon
+        .exterior
+        .iter()
+        .filter(|p| p[1].is_finite())
+        .fold((f64::MAX, f64::MIN), |(lo, hi), p| {
+            (lo.min(p[1]), hi.max(p[1]))
+        });
+    if hi <= lo {
+        return None;
+    }
+    let mut best: Option<(f64, P2)> = None;
+    for k in 1..16 {
+        let y = lo + (hi - lo) * f64::from(k) / 16.0;
+        let mut xs: Vec<f64> = edges()
+            .filter(|(p, q)| (p[1] <= y) != (q[1] <= y))
+            .map(|(p, q)| p[0] + (y - p[1]) / (q[1] - p[1]) * (q[0] - p[0]))
+            .filter(|x| x.is_finite())
+            .collect();
+        xs.sort_by(f64::total_cmp);
+        for run in xs.chunks_exact(2) {
+            let m = [(run[0] + run[1]) / 2.0, y];
+            let clearance = edges()
+                .map(|(p, q)| point_segment_distance(m, p, q))
+                .fold(f64::MAX, f64::min);
+            if best.is_none_or(|(c, _)| clearance > c) {
+                best = Some((clearance, m));
+            }
+        }
+    }
+    best.map(|(_, p)| p)
 }
 
 /// A wall's path data: a polyline for lines, two `A` arcs for arc walls (two halves, so that
@@ -427,5 +600,84 @@ mod tests {
         let svg = to_svg(&plan([0.0; 3], vec![]));
         assert_eq!(elements(&svg)[0], "svg");
         assert!(svg.contains("no stories"));
+    }
+
+    #[test]
+    fn rooms_are_labelled_and_doors_windows_drawn() {
+        let svg = to_svg(&crate::io::geojson::tests::spaces_plan());
+        elements(&svg);
+        assert_eq!(svg.matches(r#"class="room""#).count(), 4);
+        assert_eq!(svg.matches(r#"class="room-label""#).count(), 4);
+        assert_eq!(svg.matches(r#"class="wall-body""#).count(), 10);
+        assert_eq!(svg.matches(r#"class="door""#).count(), 2);
+        assert_eq!(svg.matches(r#"class="door-gap""#).count(), 3);
+        assert_eq!(svg.matches(r#"class="opening""#).count(), 1);
+        assert_eq!(svg.matches(r#"class="window""#).count(), 1);
+        assert!(svg.contains(">L0-R1</tspan>"));
+        assert!(svg.contains(">35.5 m²</tspan>"));
+        assert!(svg.contains(">60.0 m²</tspan>"));
+        // A door's path: hinge, leaf end, and an arc of the door's width back to its far jamb.
+        let door = svg
+            .lines()
+            .find(|l| l.contains(r#"data-id="L0-D1""#) && l.contains(r#"class="door""#))
+            .unwrap();
+        let d = door
+            .split(r#" d=""#)
+            .nth(1)
+            .unwrap()
+            .split('"')
+            .next()
+            .unwrap();
+        let nums: Vec<f64> = d
+            .split(|c: char| c.is_ascii_alphabetic() || c.is_whitespace())
+            .filter(|s| !s.is_empty())
+            .map(|s| s.parse().unwrap())
+            .collect();
+        assert_eq!(nums.len(), 2 + 2 + 7);
+        let (hinge, leaf, end) = ([nums[0], nums[1]], [nums[2], nums[3]], [nums[9], nums[10]]);
+        let r = nums[4];
+        let d = |p: [f64; 2], q: [f64; 2]| ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt();
+        assert!((d(hinge, leaf) - r).abs() < 0.02 && (d(hinge, end) - r).abs() < 0.02);
+        // The door runs north along x = 6; its leaf opens to the west (left), on screen too.
+        assert!(leaf[0] < hinge[0] - r * 0.99);
+    }
+
+    #[test]
+    fn labels_sit_inside_their_rooms_away_from_walls() {
+        // An L-shaped room: its centroid-ish middle would be outside, in the notch.
+        let l = Polygon {
+            exterior: vec![
+                [0.0, 0.0],
+                [6.0, 0.0],
+                [6.0, 1.0],
+                [1.0, 1.0],
+                [1.0, 6.0],
+                [0.0, 6.0],
+            ],
+            holes: vec![],
+        };
+        let p = label_point(&l).unwrap();
+        let inside = |p: P2| (p[0] < 1.0 && p[1] < 6.0) || (p[1] < 1.0 && p[0] < 6.0);
+        assert!(inside(p) && p[0] > 0.0 && p[1] > 0.0, "{p:?}");
+        // A square with a column in its middle: not on the column.
+        let mut hole = square(1.5, 1.5, 1.0);
+        hole.reverse();
+        let q = label_point(&Polygon {
+            exterior: square(0.0, 0.0, 4.0),
+            holes: vec![hole],
+        })
+        .unwrap();
+        assert!(
+            !(1.5..=2.5).contains(&q[0]) || !(1.5..=2.5).contains(&q[1]),
+            "{q:?}"
+        );
+        assert_eq!(label_point(&Polygon::default()), None);
+        assert_eq!(
+            label_point(&Polygon {
+                exterior: vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]],
+                holes: vec![]
+            }),
+            None
+        );
     }
 }
