@@ -19,7 +19,8 @@ static PAGE: LazyLock<String> = LazyLock::new(|| {
     TEMPLATE.replacen(SLOT, &tables().to_string(), 1)
 });
 
-/// `ranges`: `section.name` → `{min, max, unit}`; `stages`: `[{name, weight}]` in pipeline order.
+/// `ranges`: `section.name` → `{min, max, unit}`; `stages`: `[{name, weight}]` in pipeline order;
+/// `outputs`: `name` → `{file, about}`, to describe the downloads a job's `links` offer.
 fn tables() -> Value {
     let ranges: Map<String, Value> = asbuilt_plan::params::ranges()
         .into_iter()
@@ -34,7 +35,16 @@ fn tables() -> Value {
         .iter()
         .map(|r| json!({"name": r.name, "weight": r.weight}))
         .collect();
-    json!({"ranges": ranges, "stages": stages})
+    let outputs: Map<String, Value> = asbuilt_plan::io::outputs::OUTPUTS
+        .iter()
+        .map(|o| {
+            (
+                o.name.to_string(),
+                json!({"file": o.file, "about": o.about}),
+            )
+        })
+        .collect();
+    json!({"ranges": ranges, "stages": stages, "outputs": outputs})
 }
 
 /// The page; in a debug build with `ASBUILT_PAGE_FROM=static/index.html`, read afresh from that
@@ -85,6 +95,9 @@ mod tests {
             .collect();
         assert_eq!(names.first(), Some(&"read"));
         assert_eq!(names.last(), Some(&"write"));
+        let outputs = t["outputs"].as_object().unwrap();
+        assert_eq!(outputs.len(), asbuilt_plan::io::outputs::OUTPUTS.len());
+        assert_eq!(outputs["rooms"]["file"], "rooms.csv");
         assert!(PAGE.contains(&t.to_string()));
     }
 }

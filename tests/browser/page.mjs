@@ -428,6 +428,134 @@ try {
     await check(seen.axe.length === 0, "axe violations on a phone: " + seen.axe.join("; "));
     await page.screenshot({ path: file("phone.png"), fullPage: true });
     await page.checkClean();
+  } else if (scenario === "outputs") {
+    // Downloads follow the job's `links`; a running job is cancelled, kept, and shows its expiry.
+    const page = await open();
+    const requests = [];
+    page.on("request", (r) => { if (r.method() !== "GET") requests.push(r.method() + " " + new URL(r.url()).pathname); });
+    const id = await uploadAndWait(page, file("room.xyz"));
+    const j = await job(page, id);
+    const offered = Object.keys(j.links).filter((k) => k !== "self" && k !== "events");
+    seen.offered = offered;
+    seen.buttons = await page.evaluate(() => [...document.querySelectorAll("#downloads button")].map((b) => b.dataset.name));
+    await check(offered.includes("ifc") && offered.includes("rooms") && JSON.stringify(seen.buttons) === JSON.stringify(offered), "buttons " + seen.buttons + " for links " + offered);
+    seen.labels = await page.evaluate(() => [...document.querySelectorAll("#downloads button")].map((b) => b.textContent));
+    // Each download from the keyboard: its name, and the bytes the server serves under the link.
+    seen.names = {};
+    for (const name of offered) {
+      await page.focus(`#downloads button[data-name="${name}"]`);
+      const [dl] = await Promise.all([page.waitForEvent("download"), page.keyboard.press("Enter")]);
+      const got = readFileSync(await dl.path());
+      const served = await page.evaluate(async (href) => (await (await api(href)).arrayBuffer()).byteLength, j.links[name]);
+      seen.names[name] = dl.suggestedFilename();
+      const ext = j.links[name].split(".").pop();
+      const own = j.links[name].split("/").pop().replace(/\.[^.]*$/, "");
+      const want = new RegExp("^room-\\d{8}-\\d{6}" + (own === "plan" ? "" : "-" + own) + "\\." + ext + "$");
+      await check(want.test(seen.names[name]), name + " saved as " + seen.names[name]);
+      await check(got.length > 0 && got.length === served, name + ": " + got.length + " bytes saved, " + served + " served");
+      if (name === "ifc") await check(got.toString("latin1").startsWith("ISO-10303-21"), "the IFC download is not STEP");
+      if (name === "rooms") await check(got.toString("utf8").split("\n")[0].includes(","), "the rooms download is not CSV");
+    }
+    await check(seen.labels.includes("IFC") && seen.labels.includes("Rooms CSV") && seen.labels.includes("GeoJSON"), "labels: " + seen.labels);
+    // A format the server adds later: one more link, one more button, no page change.
+    await page.route(new RegExp("/v1/jobs/" + id + "$"), async (r) => {
+      const res = await r.fetch();
+      const body = await res.json();
+      body.links.pdf = "/v1/jobs/" + id + "/plan.pdf";
+      await r.fulfill({ response: res, json: body });
+    });
+    await page.route(new RegExp("/v1/jobs/" + id + "/plan\\.pdf$"), (r) => r.fulfill({ contentType: "application/pdf", body: "%PDF-1.7 test" }));
+    await page.evaluate(async (id) => show(await (await api("/v1/jobs/" + id)).json()), id);
+    await page.waitForSelector("#downloads button[data-name=pdf]");
+    const [pdf] = await Promise.all([page.waitForEvent("download"), page.click("#downloads button[data-name=pdf]")]);
+    seen.pdf = [await page.textContent("#downloads button[data-name=pdf]"), pdf.suggestedFilename()];
+    await check(seen.pdf[0] === "PDF" && /^room-\d{8}-\d{6}\.pdf$/.test(seen.pdf[1]), "a new link: " + seen.pdf);
+    await page.unroute(new RegExp("/v1/jobs/" + id + "$"));
+    // A finished job says how long it is kept.
+    seen.expires = await page.textContent("#expires");
+    seen.expiresAt = await page.getAttribute("#expires time", "datetime");
+    await check(j.expires_at && seen.expires.startsWith("kept until ") && seen.expiresAt === j.expires_at, "expiry: " + seen.expires + " / " + seen.expiresAt + " / " + j.expires_at);
+    // Cancel a running job from the keyboard: kept as cancelled, with its stage stopped.
+    await page.setInputFiles("#file", file("hang.xyz"));
+    await page.click("#start");
+    await until(page, () => !$("cancel").hidden && document.querySelector("#stages li.now"));
+    const running = await currentId(page);
+    seen.runningExpires = await page.textContent("#expires");
+    seen.runningDownloads = await page.locator("#downloads button").count();
+    await check(seen.runningExpires === "" && seen.runningDownloads === 0, "a running job shows expiry or downloads");
+    await page.focus("#cancel");
+    await page.keyboard.press("Enter");
+    await until(page, () => $("status").textContent.startsWith("cancelled"));
+    const c = await job(page, running);
+    seen.cancelled = { status: c.status, stopped: await page.locator("#stages li.stopped").count(), expires: await page.getAttribute("#expires time", "datetime") };
+    await check(c.status === "cancelled" && seen.cancelled.stopped === 1 && c.expires_at && seen.cancelled.expires === c.expires_at, "after cancel: " + JSON.stringify(seen.cancelled));
+    seen.requests = requests.filter((r) => r.includes(running));
+    await check(seen.requests.join() === "POST /v1/jobs/" + running + "/cancel", "cancel sent: " + seen.requests);
+    await until(page, (r) => { const li = document.querySelector(`#jobs li[data-id="${r}"]`); return li && li.querySelector(".st").textContent === "cancelled" && li.querySelector("button.del"); }, running);
+    await check(await page.isHidden("#cancel"), "cancel still offered for a cancelled job");
+    seen.axe = await axe(page);
+    await check(seen.axe.length === 0, "axe violations: " + seen.axe.join("; "));
+    await page.checkClean();
+  } else if (scenario === "replan") {
+    // Plan again from the stored upload, with the form's parameters and optionally new poses.
+    const page = await open();
+    const posts = [];
+    page.on("request", (r) => { if (r.method() === "POST") posts.push(new URL(r.url()).pathname); });
+    await page.fill("#p-samples\\.cell_size", "4 cm");
+    await page.setInputFiles("#file", [file("room.xyz"), file("poses.json")]);
+    await until(page, () => $("sidecarinfo").textContent.includes("poses of 1 scan"));
+    const first = await uploadAndWait(page, null);
+    await check(await page.isVisible("#replanbox"), "no plan-again control on a finished job");
+    seen.replanName = await page.textContent("#replanname");
+    await check(seen.replanName === "room.xyz", "plan again names " + seen.replanName);
+    // Other parameters, then Tab to the button and Enter.
+    await page.fill("#p-samples\\.cell_size", "0.1");
+    await page.focus("#p-samples\\.cell_size");
+    let reached = false;
+    for (let i = 0; i < 200 && !reached; i++) { await page.keyboard.press("Tab"); reached = await page.evaluate(() => document.activeElement.id === "replan"); }
+    await check(reached, "plan again cannot be reached with Tab");
+    await page.keyboard.press("Enter");
+    await until(page, (f) => current && current.id !== f, first);
+    const second = await currentId(page);
+    seen.followed = await page.evaluate(() => $("status").textContent);
+    await page.waitForSelector("#plan[data-drawn=true]", { timeout: 60000 });
+    const j2 = await job(page, second);
+    seen.second = { source: j2.source_job, cell: j2.parameters.samples.cell_size, sidecar: j2.upload.sidecar, hash: new URL(page.url()).hash };
+    await check(seen.second.source === first && seen.second.cell === 0.1 && seen.second.sidecar === "poses" && seen.second.hash === "#job=" + second, "first re-plan: " + JSON.stringify(seen.second));
+    await check(seen.followed !== "succeeded" || (await page.locator("#stages li.done").count()) > 0, "the new job was not followed");
+    seen.posts = posts.slice();
+    await check(posts.join() === "/v1/jobs,/v1/jobs/" + first + "/replan", "requests: " + posts);
+    await until(page, (id) => document.querySelector(`#jobs li[data-id="${id}"]`), second);
+    // The form's values are what is sent: back to defaults, and a trajectory in place of the poses.
+    const dflt = await page.evaluate(() => defaults.samples.cell_size);
+    await page.click("#resetparams");
+    await page.setInputFiles("#replanposes", file("trajectory.json"));
+    await until(page, () => $("replansidecar").textContent.includes("trajectory"));
+    await page.click("#replan");
+    await until(page, (s) => current && current.id !== s, second);
+    await page.waitForSelector("#plan[data-drawn=true]", { timeout: 60000 });
+    const j3 = await job(page, await currentId(page));
+    seen.third = { source: j3.source_job, cell: j3.parameters.samples.cell_size, sidecar: j3.upload.sidecar, dflt };
+    // A re-plan of a re-plan still names the job whose upload it reads.
+    await check(seen.third.source === first && seen.third.cell === dflt && dflt !== 0.1 && seen.third.sidecar === "trajectory", "second re-plan: " + JSON.stringify(seen.third));
+    await check((await page.textContent("#q-poses")).includes("trajectory"), "quality does not say the trajectory was used");
+    await check((await page.inputValue("#replanposes")) === "" && (await page.textContent("#replansidecar")) === "", "the new poses stay chosen after the re-plan");
+    // Nothing leaves with a bad parameter or a bad sidecar.
+    const before = posts.length;
+    await page.fill("#p-samples\\.cell_size", "five");
+    await page.click("#replan");
+    seen.paramErr = await page.textContent("#replanerr");
+    seen.focused = await page.evaluate(() => document.activeElement.id);
+    await check(seen.paramErr.includes("Grid cell size") && seen.focused === "p-samples.cell_size", "bad parameter: " + seen.paramErr);
+    await page.click("#resetparams");
+    await page.setInputFiles("#replanposes", file("bad.json"));
+    await until(page, () => $("replansidecar").textContent.includes("neither"));
+    await page.click("#replan");
+    seen.sideErr = await page.textContent("#replanerr");
+    await check(seen.sideErr.includes("neither poses") && posts.length === before, "bad sidecar: " + seen.sideErr + ", posts " + posts.slice(before));
+    seen.axe = await axe(page);
+    await check(seen.axe.length === 0, "axe violations: " + seen.axe.join("; "));
+    await page.checkClean();
   } else {
     await fail("unknown scenario " + scenario);
   }

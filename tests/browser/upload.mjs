@@ -40,6 +40,8 @@ try {
     areas: document.querySelectorAll("#plan path.area").length,
     scale: document.getElementById("scaletext").textContent,
     downloads: [...document.querySelectorAll("#downloads button")].filter((b) => !b.disabled).length,
+    // One download per result the job's links name.
+    offered: Object.keys((current && current.links) || {}).filter((k) => k !== "self" && k !== "events").length,
     stages: [...document.querySelectorAll("#stages li.done")].length,
     upload: document.getElementById("uptext").textContent,
     jobs: document.querySelectorAll("#jobs li").length,
@@ -64,7 +66,7 @@ try {
   if (seen.status !== "succeeded") await fail("status is " + seen.status);
   if (seen.walls < 1 || seen.areas < 1) await fail("no plan drawn");
   if (seen.arcLegend !== seen.arcs > 0) await fail("arc legend shown: " + seen.arcLegend + ", arcs: " + seen.arcs);
-  if (seen.downloads !== 3) await fail("downloads not enabled");
+  if (seen.downloads < 5 || seen.downloads !== seen.offered) await fail("downloads: " + seen.downloads + " for " + seen.offered + " results");
   if (seen.current !== 1) await fail("the shown job is not marked in the list");
   if (!seen.cancelHidden) await fail("cancel still offered for a finished job");
   if (!seen.upload.includes("SHA-256")) await fail("no upload summary");

@@ -205,3 +205,45 @@ async fn the_page_works_on_a_phone() {
     let zoom = seen["pinch"].as_f64().unwrap();
     assert!(zoom > 2.5, "{seen}");
 }
+
+#[tokio::test(flavor = "multi_thread")]
+async fn downloads_follow_the_links_and_a_running_job_is_cancelled() {
+    let Some(seen) = scenario("outputs", 0).await else {
+        return;
+    };
+    // Every result the server offers, GeoJSON first, IFC and the room schedule included.
+    let offered: Vec<&str> = asbuilt_plan::io::outputs::OUTPUTS
+        .iter()
+        .map(|o| o.name)
+        .collect();
+    let mut buttons: Vec<&str> = seen["buttons"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|b| b.as_str().unwrap())
+        .collect();
+    buttons.sort();
+    let mut want = offered.clone();
+    want.sort();
+    assert_eq!(buttons, want, "{seen}");
+    let rooms = seen["names"]["rooms"].as_str().unwrap();
+    assert!(
+        rooms.starts_with("room-") && rooms.ends_with("-rooms.csv"),
+        "{seen}"
+    );
+    assert_eq!(seen["cancelled"]["status"], "cancelled", "{seen}");
+    assert_eq!(seen["axe"], serde_json::json!([]), "{seen}");
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_job_is_planned_again_without_uploading() {
+    let Some(seen) = scenario("replan", 0).await else {
+        return;
+    };
+    assert_eq!(seen["second"]["cell"], 0.1, "{seen}");
+    assert_eq!(seen["second"]["sidecar"], "poses", "{seen}");
+    assert_eq!(seen["third"]["sidecar"], "trajectory", "{seen}");
+    assert_eq!(seen["third"]["cell"], seen["third"]["dflt"], "{seen}");
+    assert_eq!(seen["posts"].as_array().unwrap().len(), 2, "{seen}");
+    assert_eq!(seen["axe"], serde_json::json!([]), "{seen}");
+}
