@@ -438,7 +438,8 @@ try {
     const offered = Object.keys(j.links).filter((k) => k !== "self" && k !== "events");
     seen.offered = offered;
     seen.buttons = await page.evaluate(() => [...document.querySelectorAll("#downloads button")].map((b) => b.dataset.name));
-    await check(offered.includes("ifc") && offered.includes("rooms") && JSON.stringify(seen.buttons) === JSON.stringify(offered), "buttons " + seen.buttons + " for links " + offered);
+    await check(offered.includes("ifc") && offered.includes("rooms") && JSON.stringify([...seen.buttons].sort()) === JSON.stringify([...offered].sort()), "buttons " + seen.buttons + " for links " + offered);
+    await check(seen.buttons[0] === "geojson", "GeoJSON (the contract) is not first: " + seen.buttons);
     seen.labels = await page.evaluate(() => [...document.querySelectorAll("#downloads button")].map((b) => b.textContent));
     // Each download from the keyboard: its name, and the bytes the server serves under the link.
     seen.names = {};
@@ -486,6 +487,10 @@ try {
     await page.focus("#cancel");
     await page.keyboard.press("Enter");
     await until(page, () => $("status").textContent.startsWith("cancelled"));
+    // The cancel button goes away: focus moves to the status, not to the page's start.
+    await until(page, () => document.activeElement.id === "status", null, 5000).catch(() => {});
+    seen.focusAfterCancel = await page.evaluate(() => document.activeElement.id);
+    await check(seen.focusAfterCancel === "status", "focus after cancel: " + seen.focusAfterCancel);
     const c = await job(page, running);
     seen.cancelled = { status: c.status, stopped: await page.locator("#stages li.stopped").count(), expires: await page.getAttribute("#expires time", "datetime") };
     await check(c.status === "cancelled" && seen.cancelled.stopped === 1 && c.expires_at && seen.cancelled.expires === c.expires_at, "after cancel: " + JSON.stringify(seen.cancelled));
@@ -526,6 +531,9 @@ try {
     seen.posts = posts.slice();
     await check(posts.join() === "/v1/jobs,/v1/jobs/" + first + "/replan", "requests: " + posts);
     await until(page, (id) => document.querySelector(`#jobs li[data-id="${id}"]`), second);
+    seen.listed = await page.textContent(`#jobs li[data-id="${second}"] .when`);
+    await check(seen.listed.includes("planned again"), "the list does not tell the re-plan: " + seen.listed);
+    await check(await page.isHidden("#upload"), "the first upload's bar is left after the re-plan");
     // The form's values are what is sent: back to defaults, and a trajectory in place of the poses.
     const dflt = await page.evaluate(() => defaults.samples.cell_size);
     await page.click("#resetparams");
@@ -552,6 +560,7 @@ try {
     await until(page, () => $("replansidecar").textContent.includes("neither"));
     await page.click("#replan");
     seen.sideErr = await page.textContent("#replanerr");
+    await page.screenshot({ path: file("replan.png"), fullPage: true });
     await check(seen.sideErr.includes("neither poses") && posts.length === before, "bad sidecar: " + seen.sideErr + ", posts " + posts.slice(before));
     seen.axe = await axe(page);
     await check(seen.axe.length === 0, "axe violations: " + seen.axe.join("; "));

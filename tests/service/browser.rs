@@ -124,7 +124,7 @@ async fn scenario(name: &str, jobs_before: usize) -> Option<Value> {
     );
     let seen: Value = serde_json::from_str(stdout.lines().last().unwrap_or_default()).unwrap();
     assert_eq!(seen["scenario"], name);
-    for shot in ["underlay.png", "phone.png"] {
+    for shot in ["underlay.png", "phone.png", "replan.png"] {
         let p = s.dir.path().join(shot);
         if p.exists() {
             let kept = std::env::temp_dir().join(format!("asbuilt-page-{shot}"));
