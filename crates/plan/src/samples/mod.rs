@@ -175,16 +175,12 @@ pub fn sample_walls_in(
     cancel: &Cancel,
 ) -> Result<WallSamples, SamplesError> {
     check_params(params, story)?;
-    let scan = scan_cells(
+    let source = CellSource {
         cloud,
         viewpoints,
         spans,
-        story,
-        params,
-        frame,
-        frame.all(),
-        cancel,
-    )?;
+    };
+    let scan = scan_cells(&source, story, params, frame, frame.all(), cancel)?;
     finish_samples(cloud, viewpoints, story, params, vec![scan])
 }
 
@@ -197,17 +193,28 @@ pub(crate) struct CellScan {
     tally: [usize; 6],
 }
 
-/// Tests the cells of `core` (a range of `frame`'s cells) on the points of `cloud`.
+/// The points a range of cells is tested on, and the scanners that saw them.
+pub(crate) struct CellSource<'a> {
+    pub(crate) cloud: &'a PointCloud,
+    pub(crate) viewpoints: &'a Viewpoints,
+    /// Index ranges of `cloud` holding the story's points; `None` for all.
+    pub(crate) spans: Option<&'a [Range<usize>]>,
+}
+
+/// Tests the cells of `core` (a range of `frame`'s cells) on the points of `source`.
 pub(crate) fn scan_cells(
-    cloud: &PointCloud,
-    viewpoints: &Viewpoints,
-    spans: Option<&[Range<usize>]>,
+    source: &CellSource<'_>,
     story: &Story,
     params: &SamplesParams,
     frame: &GridFrame,
     core: CellRange,
     cancel: &Cancel,
 ) -> Result<CellScan, SamplesError> {
+    let CellSource {
+        cloud,
+        viewpoints,
+        spans,
+    } = *source;
     let mut out = CellScan {
         found: Vec::new(),
         tally: [0; 6],

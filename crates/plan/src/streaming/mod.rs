@@ -32,8 +32,8 @@ use crate::pipeline::{plan_stories, CloudSummary, PlanError, Timings};
 use crate::plan::FloorPlan;
 use crate::progress::{Progress, Stage};
 use crate::samples::{
-    check_params, finish_samples, scan_cells, CellScan, GridFrame, SamplesError, SpacingProbe,
-    StoryBounds, WallSamples,
+    check_params, finish_samples, scan_cells, CellScan, CellSource, GridFrame, SamplesError,
+    SpacingProbe, StoryBounds, WallSamples,
 };
 use crate::stories::{HeightHistogram, Story};
 use crate::viewpoints;
@@ -359,16 +359,12 @@ fn sample_tiles(
                 continue;
             };
             let core = tiling.core(t, frame);
-            match scan_cells(
-                &cloud,
-                &skeleton.viewpoints,
-                None,
-                story,
-                &params.samples,
-                frame,
-                core,
-                cancel,
-            ) {
+            let source = CellSource {
+                cloud: &cloud,
+                viewpoints: &skeleton.viewpoints,
+                spans: None,
+            };
+            match scan_cells(&source, story, &params.samples, frame, core, cancel) {
                 Ok(scan) => list.push(scan),
                 Err(SamplesError::Cancelled(c)) => return Err(PlanError::Cancelled(c).into()),
                 Err(e) => *entry = Err(e),
