@@ -24,6 +24,12 @@ pub(crate) struct Gap {
     pub lintel: bool,
     /// Local height of the lintel's underside, where seen.
     pub head_z: Option<f64>,
+    /// Narrower than a door: a crack the plan left between a wall's end and the next face,
+    /// always closed, never a door.
+    pub crack: bool,
+    /// How far the cut reaches past each jamb along the wall until both faces are solid, so a
+    /// slanted jamb still closes.
+    pub reach: [f64; 2],
 }
 
 impl Gap {
@@ -34,12 +40,12 @@ impl Gap {
     pub fn left(&self) -> P2 {
         [-self.u[1], self.u[0]]
     }
-    /// The gap's floor from face to face, as a ring (counter-clockwise), reaching `reach` into
-    /// the jambs along the wall.
-    pub fn rect(&self, reach: f64) -> Vec<P2> {
+    /// The gap's floor from face to face, as a ring (counter-clockwise), reaching into the
+    /// jambs along the wall.
+    pub fn rect(&self) -> Vec<P2> {
         let (n, h) = (self.left(), self.depth / 2.0);
-        let a = geom::sub(self.a, geom::scale(self.u, reach));
-        let b = geom::add(self.b, geom::scale(self.u, reach));
+        let a = geom::sub(self.a, geom::scale(self.u, self.reach[0]));
+        let b = geom::add(self.b, geom::scale(self.u, self.reach[1]));
         vec![
             geom::sub(a, geom::scale(n, h)),
             geom::sub(b, geom::scale(n, h)),
@@ -68,15 +74,19 @@ pub(crate) fn find(
 ) -> Vec<Gap> {
     let mut out: Vec<Gap> = Vec::new();
     for p in pieces {
-        for (origin, dir) in [(p.b, p.u), (p.a, geom::scale(p.u, -1.0))] {
-            let Some(width) = cast(origin, dir, faces, params.max_door_width) else {
+        for (p_end, dir) in [(p.b, p.u), (p.a, geom::scale(p.u, -1.0))] {
+            let Some((leave, enter)) = cast(p_end, dir, faces, params.max_door_width) else {
                 continue;
             };
-            if width < params.min_door_width {
+            // The gap starts at the wall's own end (a slanted end takes a little); a ray that
+            // leaves solid farther on has crossed another wall, and what follows is a room.
+            if leave > p.thickness / 2.0 {
                 continue;
             }
-            let end = geom::add(origin, geom::scale(dir, width));
-            let gap = Gap {
+            let origin = geom::add(p_end, geom::scale(dir, leave));
+            let width = enter - leave;
+            let end = geom::add(p_end, geom::scale(dir, enter));
+            let mut gap = Gap {
                 a: origin,
                 b: end,
                 u: dir,
@@ -84,7 +94,23 @@ pub(crate) fn find(
                 depth: p.thickness,
                 lintel: false,
                 head_z: None,
+                crack: width < params.min_door_width,
+                reach: [0.05, 0.05],
             };
+            // A crack is free floor between the wall's end and the face; solid there is a
+            // wall meeting another, nothing to close.
+            let open = (0..20).any(|k| {
+                let f = (k as f64 + 0.5) / 20.0;
+                free.contains(geom::add(origin, geom::scale(dir, width * f)))
+            });
+            if gap.crack && !open {
+                continue;
+            }
+            gap.reach = [reach(&gap, free, -1.0), reach(&gap, free, 1.0)];
+            if gap.crack {
+                out.push(gap);
+                continue;
+            }
             // Free floor through the gap and on both sides of it.
             let along = [0.25, 0.5, 0.75]
                 .iter()
@@ -94,7 +120,9 @@ pub(crate) fn find(
                 continue;
             }
             let twin = out.iter().any(|g| {
-                geom::dist(g.center(), gap.center()) < 0.1 && (g.width - gap.width).abs() < 0.1
+                !g.crack
+                    && geom::dist(g.center(), gap.center()) < 0.1
+                    && (g.width - gap.width).abs() < 0.1
             });
             if !twin {
                 out.push(gap);
@@ -104,9 +132,29 @@ pub(crate) fn find(
     out
 }
 
-/// Distance from `origin` along `dir` to the first face crossed beyond 1 cm, up to `max`.
-fn cast(origin: P2, dir: P2, faces: &[Face], max: f64) -> Option<f64> {
-    let mut best: Option<f64> = None;
+/// How far past a jamb (`side` -1 at `a`, 1 at `b`) the cut must reach for both faces to be
+/// solid: 5 cm beyond the first step where they are, within 50 cm; else 5 cm.
+fn reach(g: &Gap, free: &Free, side: f64) -> f64 {
+    let (n, h) = (g.left(), g.depth / 2.0 - 0.005);
+    let end = if side < 0.0 { g.a } else { g.b };
+    for step in 0..50 {
+        let s = step as f64 * 0.01;
+        let c = geom::add(end, geom::scale(g.u, side * s));
+        let both = [1.0, -1.0]
+            .iter()
+            .all(|&k| !free.contains(geom::add(c, geom::scale(n, k * h))));
+        if both {
+            return s + 0.05;
+        }
+    }
+    0.05
+}
+
+/// Where the ray from `origin` along `dir` leaves solid last and enters solid again (the
+/// first face it crosses from the free side, up to `max`): the gap's two ends, as distances.
+/// A slanted wall end is crossed on the way out and does not count as the far jamb.
+fn cast(origin: P2, dir: P2, faces: &[Face], max: f64) -> Option<(f64, f64)> {
+    let mut hits = Vec::new();
     for f in faces {
         let e = geom::sub(f.b, f.a);
         let denom = geom::cross(dir, e);
@@ -116,11 +164,24 @@ fn cast(origin: P2, dir: P2, faces: &[Face], max: f64) -> Option<f64> {
         let w = geom::sub(f.a, origin);
         let t = geom::cross(w, e) / denom;
         let s = geom::cross(w, dir) / denom;
-        if t > 0.01 && t <= max && (-1e-9..=1.0 + 1e-9).contains(&s) && best.is_none_or(|b| t < b) {
-            best = Some(t);
+        if t > 1e-4 && t <= max && (-1e-9..=1.0 + 1e-9).contains(&s) {
+            hits.push((t, geom::dot(dir, f.solid_normal()) > 0.0));
         }
     }
-    best
+    let enter = hits
+        .iter()
+        .filter(|h| h.1)
+        .map(|h| h.0)
+        .fold(f64::INFINITY, f64::min);
+    if !enter.is_finite() {
+        return None;
+    }
+    let leave = hits
+        .iter()
+        .filter(|h| !h.1 && h.0 < enter)
+        .map(|h| h.0)
+        .fold(0.0, f64::max);
+    Some((leave, enter))
 }
 
 /// Looks at the points over each gap: a lintel when enough 10 cm slices along its width hold
@@ -148,7 +209,7 @@ pub(crate) fn lintels(
         .collect();
     let mut hit: Vec<Vec<bool>> = slices.iter().map(|&n| vec![false; n]).collect();
     let mut heights: Vec<Vec<f64>> = vec![Vec::new(); gaps.len()];
-    let boxes: Vec<[f64; 4]> = gaps.iter().map(|g| ring_box(&g.rect(0.05))).collect();
+    let boxes: Vec<[f64; 4]> = gaps.iter().map(|g| ring_box(&g.rect())).collect();
     let index = BoxIndex::new(&boxes);
     for q in points.xyz {
         let z = q[2] as f64;

@@ -86,7 +86,7 @@ pub(crate) fn divide(
     let cut = |kept: &[bool]| -> Result<Vec<Polygon>, super::RoomsError> {
         let mut input = polygons.to_vec();
         for (g, _) in gaps.iter().zip(kept).filter(|(_, k)| **k) {
-            let mut ring = g.rect(0.05);
+            let mut ring = g.rect();
             ring.reverse();
             input.push(Polygon {
                 exterior: ring,
@@ -103,12 +103,12 @@ pub(crate) fn divide(
         |pieces: &[Polygon], g: &Gap| matches!(sides(pieces, g), [Some(l), Some(r)] if l != r);
     // Doors: all at once (a room with two doors to one corridor needs both cut), then those
     // with the same piece on both sides are undone.
-    let mut kept: Vec<bool> = gaps.iter().map(|g| g.lintel).collect();
+    let mut kept: Vec<bool> = gaps.iter().map(|g| g.lintel || g.crack).collect();
     let mut pieces = cut(&kept)?;
     for _ in 0..4 {
         let before = kept.clone();
         for (k, g) in gaps.iter().enumerate() {
-            if kept[k] && !divides(&pieces, g) {
+            if kept[k] && !g.crack && !divides(&pieces, g) {
                 kept[k] = false;
             }
         }
@@ -120,7 +120,7 @@ pub(crate) fn divide(
     let doors = kept.clone();
     // Openings: one at a time, kept when both sides are rooms of their own.
     for (k, g) in gaps.iter().enumerate() {
-        if g.lintel {
+        if g.lintel || g.crack {
             continue;
         }
         let mut trial = kept.clone();
@@ -139,8 +139,10 @@ pub(crate) fn divide(
     let kinds = kept
         .iter()
         .zip(&doors)
-        .map(|(&k, &door)| match (k, door) {
+        .zip(gaps)
+        .map(|((&k, &door), g)| match (k, door) {
             (false, _) => None,
+            _ if g.crack => None,
             (true, true) => Some(DoorKind::Door),
             (true, false) => Some(DoorKind::Opening),
         })
