@@ -145,6 +145,12 @@ fn main() {
                     d.id, d.kind, d.width, d.depth, d.head_z, d.rooms
                 );
             }
+            for w in s.spaces.walls.iter().filter(|w| !w.exterior) {
+                eprintln!(
+                    "{} thickness {:.3} {:?} -> {:?} rooms {:?}",
+                    w.id, w.thickness, w.a, w.b, w.rooms
+                );
+            }
             for w in &s.spaces.windows {
                 eprintln!(
                     "{} width {:.2} sill {:.2} head {:.2} room {:?}",

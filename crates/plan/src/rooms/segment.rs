@@ -274,16 +274,25 @@ pub(crate) fn spaces(
         let mid = geom::scale(geom::add(p.a, p.b), 0.5);
         let off = p.thickness / 2.0 + 0.05;
         let n = p.left();
+        let rooms = [
+            room_at(geom::add(mid, geom::scale(n, off))),
+            room_at(geom::sub(mid, geom::scale(n, off))),
+        ];
+        // Two faces of one room closer together than twice the thickest wall: a column or a
+        // post standing in the room, not a wall.
+        if rooms[0].is_some()
+            && rooms[0] == rooms[1]
+            && geom::dist(p.a, p.b) < 2.0 * params.max_thickness
+        {
+            continue;
+        }
         walls.push(WallCentre {
             id: String::new(),
             a: p.a,
             b: p.b,
             thickness: p.thickness,
             exterior: false,
-            rooms: [
-                room_at(geom::add(mid, geom::scale(n, off))),
-                room_at(geom::sub(mid, geom::scale(n, off))),
-            ],
+            rooms,
         });
     }
     // Outer faces seen from one side only: exterior walls of the assumed thickness.
