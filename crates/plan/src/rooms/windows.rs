@@ -25,7 +25,7 @@ pub(crate) fn find(
         .filter(|f| f.outer && f.len >= params.min_window_width)
         .collect();
     let height = story.ceiling_z - story.floor_z;
-    if outer.is_empty() || !(height > 1.0) {
+    if outer.is_empty() || height.is_nan() || height <= 1.0 {
         return Vec::new();
     }
     let rows = (height / BIN).ceil() as usize;
