@@ -138,18 +138,7 @@ impl RoomsParams {
         for (name, v) in values {
             within(RANGES, name, v).map_err(|(name, why)| RoomsError::BadParam { name, why })?;
         }
-        if self.min_thickness >= self.max_thickness {
-            return Err(RoomsError::BadParam {
-                name: "min_thickness",
-                why: "must be below max_thickness".into(),
-            });
-        }
-        if self.min_door_width >= self.max_door_width {
-            return Err(RoomsError::BadParam {
-                name: "min_door_width",
-                why: "must be below max_door_width".into(),
-            });
-        }
+        // Crossed bounds (a minimum over its maximum) are allowed: nothing then qualifies.
         Ok(())
     }
 }

@@ -252,8 +252,7 @@ fn bad_parameters_are_named() {
         })
     ));
     let p = RoomsParams {
-        min_thickness: 0.2,
-        max_thickness: 0.1,
+        lintel_coverage: 1.5,
         ..Default::default()
     };
     assert!(p.check().is_err());
