@@ -11,6 +11,10 @@
 //! parameters and all) for that level, in black, over the story's points in a slice from 35 %
 //! to 65 % of its height (grey), with its wall samples (blue), scanners (orange) and the truth
 //! (red).
+//!
+//! And `rooms.png`: the plan's rooms for that level, each filled in its own colour and labelled
+//! with its number and area (m²), over the same slice, with doors (green), openings (magenta),
+//! windows (cyan) and wall centre lines (dark grey; exterior ones light grey), truth in red.
 
 use asbuilt_plan::boundary::trace_boundary;
 use asbuilt_plan::cleanup::clean_labels;
@@ -91,7 +95,7 @@ fn main() {
             .collect()
     });
     let mut png = Raster::new(&cloud, story, view);
-    let (lo, hi) = (
+    let (lo, hi): (f64, f64) = (
         story.floor_z + 0.35 * (story.top_z - story.floor_z),
         story.floor_z + 0.65 * (story.top_z - story.floor_z),
     );
@@ -124,6 +128,37 @@ fn main() {
         }
     }
     std::fs::write(out.join("plan.png"), png.encode()).unwrap();
+    if let Ok(plan) = &plan {
+        if let Some(s) = plan.stories.iter().find(|s| s.level == level) {
+            let mut r = Raster::new(&cloud, story, view);
+            draw_rooms(&mut r, &cloud, s, (lo, hi), &truth);
+            std::fs::write(out.join("rooms.png"), r.encode()).unwrap();
+            for room in &s.spaces.rooms {
+                eprintln!(
+                    "{} area {:.2} m² perimeter {:.2} m scanners {:?} neighbours {:?}",
+                    room.id, room.area, room.perimeter, room.scanners, room.neighbours
+                );
+            }
+            for d in &s.spaces.doors {
+                eprintln!(
+                    "{} {:?} width {:.3} depth {:.3} head {:?} rooms {:?}",
+                    d.id, d.kind, d.width, d.depth, d.head_z, d.rooms
+                );
+            }
+            for w in s.spaces.walls.iter().filter(|w| !w.exterior) {
+                eprintln!(
+                    "{} thickness {:.3} {:?} -> {:?} rooms {:?}",
+                    w.id, w.thickness, w.a, w.b, w.rooms
+                );
+            }
+            for w in &s.spaces.windows {
+                eprintln!(
+                    "{} width {:.2} sill {:.2} head {:.2} room {:?}",
+                    w.id, w.width, w.sill_z, w.head_z, w.room
+                );
+            }
+        }
+    }
     // The stages below run with the parameters the plan derived from the point spacing.
     let (params, _) = params.derive(SpacingProbe::of(&cloud.xyz).spacing());
     let mut samples = sample_walls(&cloud, story, &params.samples, &Cancel::never()).unwrap();
@@ -259,6 +294,73 @@ fn draw(
     o + "</svg>"
 }
 
+/// The rooms filled and labelled over the point slice `band`, with doors, windows and walls.
+fn draw_rooms(
+    r: &mut Raster,
+    cloud: &asbuilt_plan::cloud::PointCloud,
+    s: &asbuilt_plan::plan::StoryPlan,
+    band: (f64, f64),
+    truth: &[Vec<P2>],
+) {
+    let palette = [
+        [255, 224, 178],
+        [200, 230, 201],
+        [187, 222, 251],
+        [248, 187, 208],
+        [225, 190, 231],
+        [255, 245, 157],
+        [178, 235, 242],
+        [215, 204, 200],
+    ];
+    for (k, room) in s.spaces.rooms.iter().enumerate() {
+        let mut rings = vec![room.polygon.exterior.clone()];
+        rings.extend(room.polygon.holes.iter().cloned());
+        r.fill(&rings, palette[k % palette.len()]);
+    }
+    for p in &cloud.xyz {
+        if (band.0..band.1).contains(&(p[2] as f64)) {
+            r.dot([p[0] as f64, p[1] as f64], 0, [90, 90, 90]);
+        }
+    }
+    for w in &s.spaces.walls {
+        let c = if w.exterior {
+            [170, 170, 170]
+        } else {
+            [60, 60, 60]
+        };
+        r.segment(w.a, w.b, 1, c);
+    }
+    for room in &s.spaces.rooms {
+        for ring in std::iter::once(&room.polygon.exterior).chain(&room.polygon.holes) {
+            r.ring(ring, [0, 0, 0]);
+        }
+    }
+    for ring in truth {
+        r.ring(ring, [220, 30, 30]);
+    }
+    for d in &s.spaces.doors {
+        let c = match d.kind {
+            asbuilt_plan::plan::DoorKind::Door => [0, 170, 0],
+            asbuilt_plan::plan::DoorKind::Opening => [220, 0, 220],
+        };
+        r.segment(d.a, d.b, 4, c);
+    }
+    for w in &s.spaces.windows {
+        r.segment(w.a, w.b, 4, [0, 190, 220]);
+    }
+    for room in &s.spaces.rooms {
+        let ring = &room.polygon.exterior;
+        // The label at the room's widest inner point along its middle scanline.
+        let n = ring.len() as f64;
+        let c = [
+            ring.iter().map(|p| p[0]).sum::<f64>() / n,
+            ring.iter().map(|p| p[1]).sum::<f64>() / n,
+        ];
+        let number = room.id.rsplit('R').next().unwrap_or("");
+        r.text(c, &format!("R{number} {:.1}", room.area), [0, 0, 0]);
+    }
+}
+
 /// An RGB picture of a story from above, 2400 pixels on its longer side.
 struct Raster {
     lo: P2,
@@ -376,6 +478,87 @@ impl Raster {
         }
         for p in &m.vertices[..m.n_samples] {
             self.dot(*p, 1, [0, 150, 0]);
+        }
+    }
+
+    /// A segment, `w` pixels either side.
+    fn segment(&mut self, a: P2, b: P2, w: i64, c: [u8; 3]) {
+        let (a, b) = (self.pixel(a), self.pixel(b));
+        let n = ((b.0 - a.0).abs().max((b.1 - a.1).abs()).ceil() as usize).max(1);
+        for i in 0..=n {
+            let f = i as f64 / n as f64;
+            let (x, y) = (a.0 + f * (b.0 - a.0), a.1 + f * (b.1 - a.1));
+            for dy in -w..=w {
+                for dx in -w..=w {
+                    self.set(x as i64 + dx, y as i64 + dy, c);
+                }
+            }
+        }
+    }
+
+    /// Fills the region of `rings` (even-odd), pixel row by pixel row.
+    fn fill(&mut self, rings: &[Vec<P2>], c: [u8; 3]) {
+        let px: Vec<Vec<(f64, f64)>> = rings
+            .iter()
+            .map(|r| r.iter().map(|&p| self.pixel(p)).collect())
+            .collect();
+        for y in 0..self.h {
+            let yc = y as f64 + 0.5;
+            let mut xs = Vec::new();
+            for r in &px {
+                for k in 0..r.len() {
+                    let (a, b) = (r[k], r[(k + 1) % r.len()]);
+                    if (a.1 > yc) != (b.1 > yc) {
+                        xs.push(a.0 + (yc - a.1) / (b.1 - a.1) * (b.0 - a.0));
+                    }
+                }
+            }
+            xs.sort_by(f64::total_cmp);
+            for s in xs.chunks_exact(2) {
+                for x in (s[0].max(0.0) as i64)..(s[1].min(self.w as f64) as i64) {
+                    self.set(x, y as i64, c);
+                }
+            }
+        }
+    }
+
+    /// Text in a 3 × 5 pixel font scaled 4 times, starting at `p`: digits, `R`, `.` and space.
+    fn text(&mut self, p: P2, s: &str, c: [u8; 3]) {
+        const GLYPHS: [(char, [u8; 5]); 13] = [
+            ('0', [7, 5, 5, 5, 7]),
+            ('1', [2, 6, 2, 2, 7]),
+            ('2', [7, 1, 7, 4, 7]),
+            ('3', [7, 1, 7, 1, 7]),
+            ('4', [5, 5, 7, 1, 1]),
+            ('5', [7, 4, 7, 1, 7]),
+            ('6', [7, 4, 7, 5, 7]),
+            ('7', [7, 1, 1, 1, 1]),
+            ('8', [7, 5, 7, 5, 7]),
+            ('9', [7, 5, 7, 1, 7]),
+            ('R', [6, 5, 6, 5, 5]),
+            ('.', [0, 0, 0, 0, 2]),
+            (' ', [0, 0, 0, 0, 0]),
+        ];
+        let (x0, y0) = self.pixel(p);
+        let k = 4i64;
+        let width = s.chars().count() as i64 * 4 * k;
+        let (x0, y0) = (x0 as i64 - width / 2, y0 as i64 - 5 * k / 2);
+        for (i, ch) in s.chars().enumerate() {
+            let Some((_, rows)) = GLYPHS.iter().find(|(g, _)| *g == ch) else {
+                continue;
+            };
+            for (row, bits) in rows.iter().enumerate() {
+                for col in 0..3 {
+                    if bits & (4 >> col) != 0 {
+                        for dy in 0..k {
+                            for dx in 0..k {
+                                let x = x0 + (i as i64 * 4 + col) * k + dx;
+                                self.set(x, y0 + row as i64 * k + dy, c);
+                            }
+                        }
+                    }
+                }
+            }
         }
     }
 

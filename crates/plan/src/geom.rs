@@ -59,6 +59,22 @@ pub fn point_segment_distance(p: P2, a: P2, b: P2) -> f64 {
     dist(p, add(a, scale(ab, t)))
 }
 
+/// Even-odd point in ring.
+pub fn point_in_ring(p: P2, ring: &[P2]) -> bool {
+    let n = ring.len();
+    let mut inside = false;
+    for k in 0..n {
+        let (a, b) = (ring[k], ring[(k + 1) % n]);
+        if (a[1] > p[1]) != (b[1] > p[1]) {
+            let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
+            if p[0] < x {
+                inside = !inside;
+            }
+        }
+    }
+    inside
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

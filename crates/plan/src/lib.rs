@@ -36,6 +36,7 @@ pub mod params;
 pub mod pipeline;
 pub mod plan;
 pub mod progress;
+pub mod rooms;
 pub mod run;
 pub mod samples;
 pub mod simulate;

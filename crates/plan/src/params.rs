@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 use crate::cleanup::CleanupParams;
 use crate::fitting::FittingParams;
 use crate::labeling::LabelingParams;
+use crate::rooms::RoomsParams;
 use crate::samples::SamplesParams;
 use crate::smoothing::SmoothingParams;
 use crate::stories::StoriesParams;
@@ -22,6 +23,8 @@ pub struct Params {
     pub fitting: FittingParams,
     /// Scanner positions when the input gives none (beyond the paper).
     pub viewpoints: ViewpointsParams,
+    /// Rooms, doors, windows and walls with thickness (beyond the paper).
+    pub rooms: RoomsParams,
     /// Include each story's wall samples as a `wall_samples` feature.
     pub emit_samples: bool,
 }
@@ -84,7 +87,7 @@ pub(crate) fn within(
 
 /// Every stage's ranges, with the section each belongs to: for documents and tests.
 pub fn ranges() -> Vec<(&'static str, ParamRange)> {
-    let sections: [(&'static str, &[ParamRange]); 7] = [
+    let sections: [(&'static str, &[ParamRange]); 8] = [
         ("stories", crate::stories::RANGES),
         ("samples", crate::samples::RANGES),
         ("smoothing", crate::smoothing::RANGES),
@@ -92,6 +95,7 @@ pub fn ranges() -> Vec<(&'static str, ParamRange)> {
         ("cleanup", crate::cleanup::RANGES),
         ("fitting", crate::fitting::RANGES),
         ("viewpoints", crate::viewpoints::RANGES),
+        ("rooms", crate::rooms::RANGES),
     ];
     sections
         .into_iter()
@@ -215,6 +219,9 @@ impl Params {
             self.viewpoints.check()
         {
             return Err(named("viewpoints", name, why));
+        }
+        if let Err(crate::rooms::RoomsError::BadParam { name, why }) = self.rooms.check() {
+            return Err(named("rooms", name, why));
         }
         Ok(())
     }

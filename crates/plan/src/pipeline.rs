@@ -14,6 +14,7 @@ use crate::labeling::{label_with_report, LabelingError};
 use crate::params::Params;
 use crate::plan::{FloorPlan, InputSummary, StoryPlan};
 use crate::progress::{Progress, Stage};
+use crate::rooms::{find_rooms, Scanner, StoryPoints};
 use crate::samples::{
     check_params, sample_walls_in, SamplesError, SpacingProbe, StoryBounds, WallSamples,
 };
@@ -228,6 +229,7 @@ pub fn plan(
     let mut summary = CloudSummary::of(cloud, cloud.len() as u64);
     summary.viewpoints = estimate.report;
     summary.open_space = Some(&open_space);
+    summary.scanners = scanners(seen_from);
     plan_stories(
         &summary,
         &stories,
@@ -249,6 +251,8 @@ pub(crate) struct CloudSummary<'a> {
     pub viewpoints: ViewpointsReport,
     /// Plain x, y, z: the pseudo-viewpoints placed per story as the stories are sampled.
     pub open_space: Option<&'a RefCell<Vec<OpenSpaceStory>>>,
+    /// The static scanners' positions, for the rooms they stand in.
+    pub scanners: Vec<Scanner>,
 }
 
 impl<'a> CloudSummary<'a> {
@@ -258,7 +262,22 @@ impl<'a> CloudSummary<'a> {
             points,
             viewpoints: ViewpointsReport::default(),
             open_space: None,
+            scanners: scanners(&cloud.viewpoints),
         }
+    }
+}
+
+/// Static scanners' positions, by the index the user gave each scan.
+fn scanners(viewpoints: &Viewpoints) -> Vec<Scanner> {
+    match viewpoints {
+        Viewpoints::Static(poses) => poses
+            .iter()
+            .map(|p| Scanner {
+                index: p.index as usize,
+                position: p.position,
+            })
+            .collect(),
+        _ => Vec::new(),
     }
 }
 
@@ -293,6 +312,7 @@ pub(crate) fn plan_stories(
         let grid = Grid::world(cloud.origin);
         match plan_story(
             story,
+            input,
             params,
             &grid,
             progress,
@@ -387,8 +407,10 @@ fn shared_code(codes: &[&'static str]) -> &'static str {
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 fn plan_story(
     story: &Story,
+    input: &CloudSummary<'_>,
     params: &Params,
     grid: &Grid,
     progress: &mut dyn Progress,
@@ -439,7 +461,7 @@ fn plan_story(
     timings.add(VALIDITY, start.elapsed().as_secs_f64() * 1e3);
     let mut notes = fitted.notes;
     notes.extend(valid.notes);
-    let plan = StoryPlan {
+    let mut plan = StoryPlan {
         level: story.level,
         floor_z: story.floor_z,
         ceiling_z: story.ceiling_z,
@@ -448,6 +470,20 @@ fn plan_story(
         samples: samples.samples.iter().map(|s| s.pos).collect(),
         spaces: Default::default(),
     };
+    step(Stage::Rooms)?;
+    // A story whose rooms cannot be found keeps its plan, with a note.
+    let points = StoryPoints {
+        xyz: &input.cloud.xyz,
+    };
+    match timings.time(Stage::Rooms, || {
+        find_rooms(&plan, &points, &input.scanners, &params.rooms, grid)
+    }) {
+        Ok(found) => {
+            plan.spaces = found.spaces;
+            notes.extend(found.notes);
+        }
+        Err(e) => notes.push(format!("rooms: {e}; the story has no rooms")),
+    }
     Ok(StoryOutcome {
         plan,
         min_points_used: samples.min_points_used,

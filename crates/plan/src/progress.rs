@@ -22,6 +22,8 @@ pub enum Stage {
     Cleanup,
     /// Fitting lines and arcs to the walls (§3.5).
     Fitting,
+    /// Rooms, doors, windows and walls with thickness (beyond the paper).
+    Rooms,
     /// Writing the outputs.
     Write,
 }
@@ -43,8 +45,8 @@ pub struct StageRow {
 }
 
 /// Every stage in pipeline order. Boundary tracing runs (and is timed) within `cleanup`, and
-/// its failure is `boundary_failed`.
-pub const STAGES: [StageRow; 8] = [
+/// its failure is `boundary_failed`. The rooms stage cannot fail a story or a job.
+pub const STAGES: [StageRow; 9] = [
     row(Stage::Read, "read", 0.0, None, &[]),
     row(Stage::Stories, "stories", 0.0, Some("no_stories"), &[]),
     row(Stage::Samples, "samples", 0.4, Some("samples_failed"), &[]),
@@ -58,12 +60,14 @@ pub const STAGES: [StageRow; 8] = [
     row(
         Stage::Labeling,
         "label",
-        0.3,
+        0.25,
         Some("labeling_failed"),
         &[crate::pipeline::TRIANGULATE],
     ),
     row(Stage::Cleanup, "cleanup", 0.1, Some("boundary_failed"), &[]),
     row(Stage::Fitting, "fit", 0.1, Some("fitting_failed"), &[]),
+    // A failure here keeps the story's plan (empty spaces and a note): no job code.
+    row(Stage::Rooms, "rooms", 0.05, None, &[]),
     row(Stage::Write, "write", 0.0, Some("output_failed"), &[]),
 ];
 

@@ -6,6 +6,7 @@
 
 mod area;
 mod distance;
+pub mod rooms;
 mod watertight;
 
 use serde::Serialize;
@@ -80,6 +81,8 @@ pub struct StoryScore {
     pub watertight_problem: Option<String>,
     /// Arcs of radius at least `min_arc_radius`.
     pub arcs: Vec<ArcScore>,
+    /// Rooms, doors and wall thickness; `None` when the truth gives no rooms.
+    pub rooms: Option<rooms::RoomsScore>,
 }
 
 impl StoryScore {
@@ -153,6 +156,11 @@ impl Evaluation {
                 st.watertight_problem.as_deref().unwrap_or("yes"),
                 st.worst_arc_error(),
             ));
+        }
+        for st in &self.stories {
+            if let Some(r) = &st.rooms {
+                s.push_str(&format!("level {} {}\n", st.level, r.summary()));
+            }
         }
         s.push_str(&format!("extra plan stories: {}\n", self.extra_stories));
         s
@@ -238,8 +246,28 @@ fn moved(s: &StoryPlan, shift: [f64; 3]) -> StoryPlan {
             })
             .collect(),
         samples: Vec::new(),
-        spaces: Default::default(),
+        spaces: moved_spaces(&s.spaces, m),
     }
+}
+
+/// The spaces moved by `m`.
+fn moved_spaces(s: &crate::plan::Spaces, m: impl Fn(&P2) -> P2) -> crate::plan::Spaces {
+    let mut out = s.clone();
+    let ring = |r: &mut Vec<P2>| r.iter_mut().for_each(|p| *p = m(p));
+    for r in &mut out.rooms {
+        ring(&mut r.polygon.exterior);
+        r.polygon.holes.iter_mut().for_each(ring);
+    }
+    for d in &mut out.doors {
+        (d.a, d.b) = (m(&d.a), m(&d.b));
+    }
+    for w in &mut out.windows {
+        (w.a, w.b) = (m(&w.a), m(&w.b));
+    }
+    for w in &mut out.walls {
+        (w.a, w.b) = (m(&w.a), m(&w.b));
+    }
+    out
 }
 
 fn missing_story(t: &TruthStory, params: &EvaluateParams) -> StoryScore {
@@ -264,6 +292,7 @@ fn missing_story(t: &TruthStory, params: &EvaluateParams) -> StoryScore {
                 relative_error: None,
             })
             .collect(),
+        rooms: None,
     }
 }
 
@@ -287,6 +316,7 @@ fn score_story(p: &StoryPlan, t: &TruthStory, params: &EvaluateParams) -> StoryS
         arcs: truth_arcs(t, params)
             .map(|(center, radius)| arc_score(p, center, radius))
             .collect(),
+        rooms: rooms::score_rooms(p, t, params.scanline),
     }
 }
 
@@ -373,6 +403,8 @@ mod tests {
                 ceiling_z: 2.5,
                 walls: walls_of(&p),
                 polygons: vec![p],
+                rooms: Vec::new(),
+                doors: Vec::new(),
             }],
         }
     }

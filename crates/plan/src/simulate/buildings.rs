@@ -4,7 +4,7 @@
 use std::f64::consts::{PI, TAU};
 
 use super::rects::{group, outline, point_in_ring, Rect};
-use super::truth::{densify, rotate, TruthStory, TruthWall};
+use super::truth::{densify, rotate, TruthDoor, TruthRoom, TruthStory, TruthWall};
 use crate::geom::{add, P2};
 use crate::plan::Polygon;
 
@@ -197,6 +197,8 @@ pub(super) struct RectStory {
 pub(super) struct LevelParts {
     pub polygons: Vec<Polygon>,
     pub walls: Vec<TruthWall>,
+    pub rooms: Vec<TruthRoom>,
+    pub doors: Vec<TruthDoor>,
     pub surfaces: Vec<Surface>,
     pub patches: Vec<Patch>,
 }
@@ -209,9 +211,14 @@ impl RectStory {
         open.extend(&self.doors);
         let mut polygons = outline(&open, &self.solid);
         let mut walls: Vec<TruthWall> = polygons.iter().flat_map(polygon_walls).collect();
+        // The rooms are the open floor without the door openings.
+        let mut rooms = outline(&self.open, &self.solid);
         for &(center, radius) in &self.round_columns {
             add_round_column(&mut polygons, &mut walls, center, radius);
+            add_round_column(&mut rooms, &mut Vec::new(), center, radius);
         }
+        let rooms = rooms.into_iter().map(TruthRoom::of).collect();
+        let doors = self.doors.iter().map(|d| door_of(*d)).collect();
         let (f, c) = (self.floor_z, top);
         let mut surfaces: Vec<Surface> = walls
             .iter()
@@ -249,6 +256,8 @@ impl RectStory {
         LevelParts {
             polygons,
             walls,
+            rooms,
+            doors,
             surfaces,
             patches,
         }
@@ -272,8 +281,28 @@ impl RectStory {
                 ceiling_z: c,
                 polygons: parts.polygons,
                 walls: parts.walls,
+                rooms: parts.rooms,
+                doors: parts.doors,
             },
         }
+    }
+}
+
+/// A door rectangle as the truth's door: its long side is the width, its short side the
+/// wall's thickness.
+fn door_of(d: Rect) -> TruthDoor {
+    let (w, h) = (d.x1 - d.x0, d.y1 - d.y0);
+    let (cx, cy) = ((d.x0 + d.x1) / 2.0, (d.y0 + d.y1) / 2.0);
+    let (a, b) = if w >= h {
+        ([d.x0, cy], [d.x1, cy])
+    } else {
+        ([cx, d.y0], [cx, d.y1])
+    };
+    TruthDoor {
+        a,
+        b,
+        width: w.max(h),
+        depth: w.min(h),
     }
 }
 
@@ -328,11 +357,16 @@ pub(super) fn transform(mut s: StoryModel, angle: f64, d: P2) -> StoryModel {
     for w in &mut s.truth.walls {
         *w = w.transformed(angle, d);
     }
-    for p in &mut s.truth.polygons {
+    let moved = |p: &mut Polygon| {
         p.exterior = p.exterior.iter().map(|&q| m(q)).collect();
         for h in &mut p.holes {
             *h = h.iter().map(|&q| m(q)).collect();
         }
+    };
+    s.truth.polygons.iter_mut().for_each(moved);
+    s.truth.rooms.iter_mut().for_each(|r| moved(&mut r.polygon));
+    for door in &mut s.truth.doors {
+        *door = door.transformed(angle, d);
     }
     s
 }
@@ -515,6 +549,8 @@ fn curved_lobby() -> StoryModel {
             level: 0,
             floor_z: f,
             ceiling_z: c,
+            rooms: polygons.iter().cloned().map(TruthRoom::of).collect(),
+            doors: Vec::new(),
             polygons,
             walls: all_walls,
         },

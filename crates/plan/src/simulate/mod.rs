@@ -25,7 +25,7 @@ use rand_distr::Normal;
 use rayon::prelude::*;
 
 pub use buildings::{Building, BuildingKind};
-pub use truth::{Truth, TruthStory, TruthWall};
+pub use truth::{Truth, TruthDoor, TruthRoom, TruthStory, TruthWall};
 
 use crate::cloud::{PointCloud, ScanPose, SourceInfo, TrajectorySample, Viewpoints};
 use crate::geom::{self, P2};

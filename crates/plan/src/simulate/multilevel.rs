@@ -60,6 +60,8 @@ fn story(
             ceiling_z,
             polygons: parts.polygons.clone(),
             walls: parts.walls.clone(),
+            rooms: parts.rooms.clone(),
+            doors: parts.doors.clone(),
         },
     }
 }

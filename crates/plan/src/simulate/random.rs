@@ -444,6 +444,9 @@ fn into_model(l: Layout, ceiling: f64) -> StoryModel {
             ceiling_z: c,
             polygons,
             walls,
+            // Rooms and doors are not given for random buildings.
+            rooms: Vec::new(),
+            doors: Vec::new(),
         },
     }
 }

@@ -8,6 +8,7 @@
 
 use std::collections::HashMap;
 
+pub use crate::geom::point_in_ring;
 use crate::geom::{ring_signed_area, P2};
 use crate::plan::Polygon;
 
@@ -166,22 +167,6 @@ fn hole_probe(hole: &[P2]) -> P2 {
     let len = d[0].hypot(d[1]).max(1e-12);
     let e = 1e-6;
     [m[0] + d[1] / len * e, m[1] - d[0] / len * e]
-}
-
-/// Even-odd point in ring.
-pub fn point_in_ring(p: P2, ring: &[P2]) -> bool {
-    let n = ring.len();
-    let mut inside = false;
-    for k in 0..n {
-        let (a, b) = (ring[k], ring[(k + 1) % n]);
-        if (a[1] > p[1]) != (b[1] > p[1]) {
-            let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
-            if p[0] < x {
-                inside = !inside;
-            }
-        }
-    }
-    inside
 }
 
 #[cfg(test)]

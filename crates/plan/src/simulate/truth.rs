@@ -4,7 +4,9 @@
 use serde::Serialize;
 
 use crate::geom::{self, P2};
-use crate::plan::{FloorPlan, InputSummary, Polygon, StoryPlan, Wall, WallModel};
+use crate::plan::{
+    Door, DoorKind, FloorPlan, InputSummary, Polygon, Room, Spaces, StoryPlan, Wall, WallModel,
+};
 
 /// A wall face on the boundary of the open floor, exactly.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -118,6 +120,59 @@ pub struct TruthStory {
     pub polygons: Vec<Polygon>,
     /// Every wall face bounding the open floor, exactly.
     pub walls: Vec<TruthWall>,
+    /// The rooms: the open floor without the door openings, one polygon a room (arcs
+    /// densified to 1 mm). Empty where the building does not say (random buildings).
+    pub rooms: Vec<TruthRoom>,
+    /// Every door between rooms.
+    pub doors: Vec<TruthDoor>,
+}
+
+/// One room of the truth.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TruthRoom {
+    pub polygon: Polygon,
+    /// Net floor area, m².
+    pub area: f64,
+}
+
+/// One door of the truth: the opening through its wall.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TruthDoor {
+    /// The jambs, on the wall's centre line.
+    pub a: P2,
+    pub b: P2,
+    pub width: f64,
+    /// The pierced wall's thickness: the interior walls' thickness, where doors are.
+    pub depth: f64,
+}
+
+impl TruthDoor {
+    pub fn center(&self) -> P2 {
+        geom::scale(geom::add(self.a, self.b), 0.5)
+    }
+
+    /// The door moved by `d` and rotated by `angle` about the origin (rotation first).
+    pub fn transformed(&self, angle: f64, d: P2) -> TruthDoor {
+        let m = |p: P2| geom::add(rotate(p, angle), d);
+        TruthDoor {
+            a: m(self.a),
+            b: m(self.b),
+            ..*self
+        }
+    }
+}
+
+impl TruthRoom {
+    /// A room from its polygon.
+    pub fn of(polygon: Polygon) -> TruthRoom {
+        let area = geom::ring_signed_area(&polygon.exterior).abs()
+            - polygon
+                .holes
+                .iter()
+                .map(|h| geom::ring_signed_area(h).abs())
+                .sum::<f64>();
+        TruthRoom { polygon, area }
+    }
 }
 
 /// A whole building's ground truth: world = `origin` + local.
@@ -175,7 +230,53 @@ fn story_plan(s: &TruthStory) -> StoryPlan {
             })
             .collect(),
         samples: Vec::new(),
-        spaces: Default::default(),
+        spaces: truth_spaces(s),
+    }
+}
+
+/// The truth's rooms and doors as a plan's spaces, so writers show them.
+fn truth_spaces(s: &TruthStory) -> Spaces {
+    let rooms = s
+        .rooms
+        .iter()
+        .enumerate()
+        .map(|(k, r)| Room {
+            id: format!("L{}-R{}", s.level, k + 1),
+            polygon: r.polygon.clone(),
+            area: r.area,
+            perimeter: std::iter::once(&r.polygon.exterior)
+                .chain(&r.polygon.holes)
+                .map(|ring| {
+                    (0..ring.len())
+                        .map(|i| geom::dist(ring[i], ring[(i + 1) % ring.len()]))
+                        .sum::<f64>()
+                })
+                .sum(),
+            floor_z: s.floor_z,
+            ceiling_z: s.ceiling_z,
+            scanners: Vec::new(),
+            neighbours: Vec::new(),
+        })
+        .collect();
+    let doors = s
+        .doors
+        .iter()
+        .enumerate()
+        .map(|(k, d)| Door {
+            id: format!("L{}-D{}", s.level, k + 1),
+            kind: DoorKind::Door,
+            a: d.a,
+            b: d.b,
+            width: d.width,
+            head_z: None,
+            depth: d.depth,
+            rooms: [None, None],
+        })
+        .collect();
+    Spaces {
+        rooms,
+        doors,
+        ..Default::default()
     }
 }
 

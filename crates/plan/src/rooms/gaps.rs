@@ -1,0 +1,321 @@
+//! Gaps through walls: where a paired wall stops and free floor goes on along its centre line
+//! for a door's width, up to the next face (the other jamb, or a wall across). The points over
+//! a gap tell a door (a lintel: something between the door height and the ceiling) from an
+//! opening.
+
+use super::faces::Face;
+use super::pairing::Piece;
+use super::segment::Free;
+use super::{RoomsParams, StoryPoints};
+use crate::geom::{self, P2};
+use crate::plan::StoryPlan;
+
+/// A gap through a wall, from jamb `a` to jamb `b` on the wall's centre line.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Gap {
+    pub a: P2,
+    pub b: P2,
+    /// Unit direction a → b.
+    pub u: P2,
+    pub width: f64,
+    /// The pierced wall's thickness.
+    pub depth: f64,
+    /// Something spans the gap between the door height and the ceiling.
+    pub lintel: bool,
+    /// Local height of the lintel's underside, where seen.
+    pub head_z: Option<f64>,
+    /// Narrower than a door: a crack the plan left between a wall's end and the next face,
+    /// always closed, never a door.
+    pub crack: bool,
+    /// How far the cut reaches past each jamb along the wall until both faces are solid, so a
+    /// slanted jamb still closes.
+    pub reach: [f64; 2],
+}
+
+impl Gap {
+    pub fn center(&self) -> P2 {
+        geom::scale(geom::add(self.a, self.b), 0.5)
+    }
+    /// Unit normal to the left of a → b.
+    pub fn left(&self) -> P2 {
+        [-self.u[1], self.u[0]]
+    }
+    /// The gap's floor from face to face, as a ring (counter-clockwise), reaching into the
+    /// jambs along the wall.
+    pub fn rect(&self) -> Vec<P2> {
+        let (n, h) = (self.left(), self.depth / 2.0);
+        let a = geom::sub(self.a, geom::scale(self.u, self.reach[0]));
+        let b = geom::add(self.b, geom::scale(self.u, self.reach[1]));
+        vec![
+            geom::sub(a, geom::scale(n, h)),
+            geom::sub(b, geom::scale(n, h)),
+            geom::add(b, geom::scale(n, h)),
+            geom::add(a, geom::scale(n, h)),
+        ]
+    }
+    /// Points just beyond either face at the gap's middle: in the two rooms it joins.
+    pub fn probes(&self) -> [P2; 2] {
+        let off = self.depth / 2.0 + 0.05;
+        let c = self.center();
+        let n = self.left();
+        [
+            geom::add(c, geom::scale(n, off)),
+            geom::sub(c, geom::scale(n, off)),
+        ]
+    }
+}
+
+/// Every gap at the ends of the paired walls, once each.
+pub(crate) fn find(
+    pieces: &[Piece],
+    faces: &[Face],
+    free: &Free,
+    params: &RoomsParams,
+) -> Vec<Gap> {
+    let mut out: Vec<Gap> = Vec::new();
+    for p in pieces {
+        for (p_end, dir) in [(p.b, p.u), (p.a, geom::scale(p.u, -1.0))] {
+            let Some((leave, enter)) = cast(p_end, dir, faces, params.max_door_width) else {
+                continue;
+            };
+            // The gap starts at the wall's own end (a slanted end takes a little); a ray that
+            // leaves solid farther on has crossed another wall, and what follows is a room.
+            if leave > p.thickness / 2.0 {
+                continue;
+            }
+            let origin = geom::add(p_end, geom::scale(dir, leave));
+            let width = enter - leave;
+            let end = geom::add(p_end, geom::scale(dir, enter));
+            let mut gap = Gap {
+                a: origin,
+                b: end,
+                u: dir,
+                width,
+                depth: p.thickness,
+                lintel: false,
+                head_z: None,
+                crack: width < params.min_door_width,
+                reach: [0.05, 0.05],
+            };
+            // A crack is free floor between the wall's end and the face; solid there is a
+            // wall meeting another, nothing to close.
+            let open = (0..20).any(|k| {
+                let f = (k as f64 + 0.5) / 20.0;
+                free.contains(geom::add(origin, geom::scale(dir, width * f)))
+            });
+            if gap.crack && !open {
+                continue;
+            }
+            gap.reach = [reach(&gap, free, -1.0), reach(&gap, free, 1.0)];
+            if gap.crack {
+                out.push(gap);
+                continue;
+            }
+            // Free floor through the gap and on both sides of it.
+            let along = [0.25, 0.5, 0.75]
+                .iter()
+                .all(|&s| free.contains(geom::add(origin, geom::scale(dir, width * s))));
+            let [l, r] = gap.probes();
+            if !along || !free.contains(l) || !free.contains(r) {
+                continue;
+            }
+            let twin = out.iter().any(|g| {
+                !g.crack
+                    && geom::dist(g.center(), gap.center()) < 0.1
+                    && (g.width - gap.width).abs() < 0.1
+            });
+            if !twin {
+                out.push(gap);
+            }
+        }
+    }
+    out
+}
+
+/// How far past a jamb (`side` -1 at `a`, 1 at `b`) the cut must reach for both faces to be
+/// solid: 5 cm beyond the first step where they are, within 50 cm; else 5 cm.
+fn reach(g: &Gap, free: &Free, side: f64) -> f64 {
+    let (n, h) = (g.left(), g.depth / 2.0 - 0.005);
+    let end = if side < 0.0 { g.a } else { g.b };
+    for step in 0..50 {
+        let s = step as f64 * 0.01;
+        let c = geom::add(end, geom::scale(g.u, side * s));
+        let both = [1.0, -1.0]
+            .iter()
+            .all(|&k| !free.contains(geom::add(c, geom::scale(n, k * h))));
+        if both {
+            return s + 0.05;
+        }
+    }
+    0.05
+}
+
+/// Where the ray from `origin` along `dir` leaves solid last and enters solid again (the
+/// first face it crosses from the free side, up to `max`): the gap's two ends, as distances.
+/// A slanted wall end is crossed on the way out and does not count as the far jamb.
+fn cast(origin: P2, dir: P2, faces: &[Face], max: f64) -> Option<(f64, f64)> {
+    let mut hits = Vec::new();
+    for f in faces {
+        let e = geom::sub(f.b, f.a);
+        let denom = geom::cross(dir, e);
+        if denom.abs() < 1e-12 {
+            continue;
+        }
+        let w = geom::sub(f.a, origin);
+        let t = geom::cross(w, e) / denom;
+        let s = geom::cross(w, dir) / denom;
+        if t > 1e-4 && t <= max && (-1e-9..=1.0 + 1e-9).contains(&s) {
+            hits.push((t, geom::dot(dir, f.solid_normal()) > 0.0));
+        }
+    }
+    let enter = hits
+        .iter()
+        .filter(|h| h.1)
+        .map(|h| h.0)
+        .fold(f64::INFINITY, f64::min);
+    if !enter.is_finite() {
+        return None;
+    }
+    let leave = hits
+        .iter()
+        .filter(|h| !h.1 && h.0 < enter)
+        .map(|h| h.0)
+        .fold(0.0, f64::max);
+    Some((leave, enter))
+}
+
+/// Looks at the points over each gap: a lintel when enough 10 cm slices along its width hold
+/// a point between `min_head_height` above the floor and `ceiling_margin` under the ceiling.
+pub(crate) fn lintels(
+    gaps: &mut [Gap],
+    story: &StoryPlan,
+    points: &StoryPoints<'_>,
+    params: &RoomsParams,
+) {
+    if gaps.is_empty() {
+        return;
+    }
+    let (z0, z1) = (
+        story.floor_z + params.min_head_height,
+        story.ceiling_z - params.ceiling_margin,
+    );
+    if z1 <= z0 {
+        return;
+    }
+    // Slices along each gap, and the heights seen in it.
+    let slices: Vec<usize> = gaps
+        .iter()
+        .map(|g| ((g.width / 0.1).ceil() as usize).max(1))
+        .collect();
+    let mut hit: Vec<Vec<bool>> = slices.iter().map(|&n| vec![false; n]).collect();
+    let mut heights: Vec<Vec<f64>> = vec![Vec::new(); gaps.len()];
+    let boxes: Vec<[f64; 4]> = gaps.iter().map(|g| ring_box(&g.rect())).collect();
+    let index = BoxIndex::new(&boxes);
+    // A very dense cloud is read in a stride: lintels stay well covered.
+    let stride = (points.xyz.len() / 8_000_000).max(1);
+    for q in points.xyz.iter().step_by(stride) {
+        let z = q[2] as f64;
+        if !(z0..z1).contains(&z) {
+            continue;
+        }
+        let p = [q[0] as f64, q[1] as f64];
+        for &k in index.near(p) {
+            let g = &gaps[k];
+            let d = geom::sub(p, g.a);
+            let (t, s) = (geom::dot(d, g.u), geom::dot(d, g.left()));
+            // The jambs' own faces are left out; the lintel's faces lie on the wall's.
+            if t < 0.03 || t > g.width - 0.03 || s.abs() > g.depth / 2.0 + 0.03 {
+                continue;
+            }
+            let slice = ((t / g.width * slices[k] as f64) as usize).min(slices[k] - 1);
+            hit[k][slice] = true;
+            heights[k].push(z);
+        }
+    }
+    for (k, g) in gaps.iter_mut().enumerate() {
+        let filled = hit[k].iter().filter(|h| **h).count() as f64 / slices[k] as f64;
+        g.lintel = filled >= params.lintel_coverage;
+        if g.lintel {
+            let h = &mut heights[k];
+            h.sort_by(f64::total_cmp);
+            // The underside: a low percentile, above stray points.
+            g.head_z = Some(h[h.len() / 20]);
+        }
+    }
+}
+
+/// The bounding box of a ring: min x, min y, max x, max y.
+pub(crate) fn ring_box(r: &[P2]) -> [f64; 4] {
+    r.iter()
+        .fold([f64::MAX, f64::MAX, f64::MIN, f64::MIN], |b, p| {
+            [
+                b[0].min(p[0]),
+                b[1].min(p[1]),
+                b[2].max(p[0]),
+                b[3].max(p[1]),
+            ]
+        })
+}
+
+/// A coarse grid over boxes, so each point is tested against the nearby ones only.
+pub(crate) struct BoxIndex {
+    origin: P2,
+    cell: f64,
+    nx: usize,
+    ny: usize,
+    cells: Vec<Vec<usize>>,
+}
+
+impl BoxIndex {
+    pub(crate) fn new(boxes: &[[f64; 4]]) -> BoxIndex {
+        let lo = [
+            boxes.iter().map(|b| b[0]).fold(f64::MAX, f64::min),
+            boxes.iter().map(|b| b[1]).fold(f64::MAX, f64::min),
+        ];
+        let hi = [
+            boxes.iter().map(|b| b[2]).fold(f64::MIN, f64::max),
+            boxes.iter().map(|b| b[3]).fold(f64::MIN, f64::max),
+        ];
+        let cell = 0.5;
+        let nx = (((hi[0] - lo[0]) / cell).ceil() as usize).clamp(1, 4096);
+        let ny = (((hi[1] - lo[1]) / cell).ceil() as usize).clamp(1, 4096);
+        let cell = ((hi[0] - lo[0]) / nx as f64)
+            .max((hi[1] - lo[1]) / ny as f64)
+            .max(1e-6);
+        let mut index = BoxIndex {
+            origin: lo,
+            cell,
+            nx,
+            ny,
+            cells: vec![Vec::new(); nx * ny],
+        };
+        for (k, b) in boxes.iter().enumerate() {
+            let (i0, j0) = index.cell_of([b[0], b[1]]);
+            let (i1, j1) = index.cell_of([b[2], b[3]]);
+            for j in j0..=j1 {
+                for i in i0..=i1 {
+                    index.cells[j * nx + i].push(k);
+                }
+            }
+        }
+        index
+    }
+
+    fn cell_of(&self, p: P2) -> (usize, usize) {
+        let i = ((p[0] - self.origin[0]) / self.cell).floor();
+        let j = ((p[1] - self.origin[1]) / self.cell).floor();
+        (
+            (i.max(0.0) as usize).min(self.nx - 1),
+            (j.max(0.0) as usize).min(self.ny - 1),
+        )
+    }
+
+    pub(crate) fn near(&self, p: P2) -> &[usize] {
+        let i = (p[0] - self.origin[0]) / self.cell;
+        let j = (p[1] - self.origin[1]) / self.cell;
+        if !(i >= 0.0 && j >= 0.0 && (i as usize) < self.nx && (j as usize) < self.ny) {
+            return &[];
+        }
+        &self.cells[j as usize * self.nx + i as usize]
+    }
+}

@@ -1,0 +1,274 @@
+use super::*;
+use crate::plan::DoorKind;
+use crate::simulate::rects::{outline, Rect};
+use crate::validity::problems;
+
+/// A story of open rectangles joined by door rectangles, 2.6 m high; with `lintels`, a lintel
+/// over each door (its underside at 2.1 m, points every 2 cm) and a wall of points along the
+/// outer faces is not given (no windows).
+fn story(
+    open: &[Rect],
+    doors: &[Rect],
+    solid: &[Rect],
+    lintels: bool,
+) -> (StoryPlan, Vec<[f32; 3]>) {
+    let mut all = open.to_vec();
+    all.extend(doors);
+    let plan = StoryPlan {
+        level: 0,
+        floor_z: 0.0,
+        ceiling_z: 2.6,
+        polygons: outline(&all, solid),
+        ..Default::default()
+    };
+    let mut points = Vec::new();
+    if lintels {
+        for d in doors {
+            let (nx, ny) = (
+                ((d.x1 - d.x0) / 0.02) as usize,
+                ((d.y1 - d.y0) / 0.02) as usize,
+            );
+            for i in 0..=nx {
+                for j in 0..=ny {
+                    let x = d.x0 + (d.x1 - d.x0) * i as f64 / nx.max(1) as f64;
+                    let y = d.y0 + (d.y1 - d.y0) * j as f64 / ny.max(1) as f64;
+                    points.push([x as f32, y as f32, 2.1]);
+                }
+            }
+        }
+    }
+    (plan, points)
+}
+
+fn run(plan: &StoryPlan, points: &[[f32; 3]], scanners: &[Scanner]) -> RoomsOutcome {
+    let out = find_rooms(
+        plan,
+        &StoryPoints { xyz: points },
+        scanners,
+        &RoomsParams::default(),
+        &Grid::local(),
+    )
+    .expect("rooms");
+    let polygons: Vec<_> = out.spaces.rooms.iter().map(|r| r.polygon.clone()).collect();
+    assert_eq!(problems(&polygons, &Grid::local()), Vec::<String>::new());
+    out
+}
+
+fn areas(out: &RoomsOutcome) -> Vec<f64> {
+    let mut a: Vec<f64> = out.spaces.rooms.iter().map(|r| r.area).collect();
+    a.sort_by(f64::total_cmp);
+    a
+}
+
+#[test]
+fn two_rooms_joined_by_one_door() {
+    let (plan, points) = story(
+        &[Rect::new(0.0, 0.0, 4.0, 3.0), Rect::new(4.1, 0.0, 8.0, 3.0)],
+        &[Rect::new(4.0, 1.0, 4.1, 1.9)],
+        &[],
+        true,
+    );
+    let scanners = [
+        Scanner {
+            index: 1,
+            position: [2.0, 1.5, 1.5],
+        },
+        Scanner {
+            index: 2,
+            position: [6.0, 1.5, 1.5],
+        },
+    ];
+    let out = run(&plan, &points, &scanners);
+    let s = &out.spaces;
+    assert_eq!(s.rooms.len(), 2, "{s:?}");
+    let a = areas(&out);
+    assert!(
+        (a[0] - 11.7).abs() < 1e-6 && (a[1] - 12.0).abs() < 1e-6,
+        "{a:?}"
+    );
+    assert_eq!(s.rooms[0].id, "L0-R1");
+    assert_eq!(s.rooms[0].scanners, vec![1]);
+    assert_eq!(s.rooms[1].scanners, vec![2]);
+    assert_eq!(s.rooms[0].neighbours, vec!["L0-R2".to_string()]);
+    assert!((s.rooms[0].perimeter - 14.0).abs() < 1e-6);
+    assert_eq!(s.doors.len(), 1);
+    let d = &s.doors[0];
+    assert_eq!(d.kind, DoorKind::Door);
+    assert!((d.width - 0.9).abs() < 1e-6, "{d:?}");
+    assert!((d.depth - 0.1).abs() < 1e-6);
+    let c = [(d.a[0] + d.b[0]) / 2.0, (d.a[1] + d.b[1]) / 2.0];
+    assert!(
+        (c[0] - 4.05).abs() < 1e-6 && (c[1] - 1.45).abs() < 1e-6,
+        "{c:?}"
+    );
+    assert!((d.head_z.expect("a lintel") - 2.1).abs() < 1e-6);
+    let mut rooms = d.rooms.clone();
+    rooms.sort();
+    assert_eq!(rooms, [Some("L0-R1".into()), Some("L0-R2".into())]);
+    // The wall between them, either side of the door, 10 cm thick.
+    let inner: Vec<_> = s.walls.iter().filter(|w| !w.exterior).collect();
+    assert_eq!(inner.len(), 2, "{inner:?}");
+    for w in inner {
+        assert!((w.thickness - 0.1).abs() < 1e-6);
+        assert!((w.a[0] - 4.05).abs() < 1e-6 && (w.b[0] - 4.05).abs() < 1e-6);
+    }
+    assert!(s.walls.iter().any(|w| w.exterior));
+}
+
+#[test]
+fn a_gap_without_a_lintel_is_an_opening_between_large_rooms() {
+    let (plan, points) = story(
+        &[Rect::new(0.0, 0.0, 4.0, 3.0), Rect::new(4.1, 0.0, 8.0, 3.0)],
+        &[Rect::new(4.0, 1.0, 4.1, 2.2)],
+        &[],
+        false,
+    );
+    // Points somewhere else, so lintels are looked for and not found.
+    let out = run(&plan, &[[1.0, 1.0, 2.2], [1.0, 1.0, 0.0]], &[]);
+    assert!(points.is_empty());
+    assert_eq!(out.spaces.rooms.len(), 2);
+    assert_eq!(out.spaces.doors.len(), 1);
+    assert_eq!(out.spaces.doors[0].kind, DoorKind::Opening);
+    assert_eq!(out.spaces.doors[0].head_z, None);
+}
+
+#[test]
+fn an_l_shaped_room_is_one_room() {
+    let (plan, points) = story(
+        &[Rect::new(0.0, 0.0, 6.0, 3.0), Rect::new(0.0, 3.0, 3.0, 6.0)],
+        &[],
+        &[],
+        true,
+    );
+    let out = run(&plan, &points, &[]);
+    let a = areas(&out);
+    assert!(a.len() == 1 && (a[0] - 27.0).abs() < 1e-6, "{a:?}");
+    assert!(out.spaces.doors.is_empty());
+    assert_eq!(out.spaces.rooms[0].polygon.exterior.len(), 6);
+}
+
+#[test]
+fn a_corridor_with_three_offices() {
+    let offices = [0.0, 4.1, 8.2].map(|x| Rect::new(x, 2.1, x + 4.0, 6.0));
+    let doors = [0.0, 4.1, 8.2].map(|x| Rect::new(x + 1.0, 2.0, x + 1.9, 2.1));
+    let mut open = vec![Rect::new(0.0, 0.0, 12.2, 2.0)];
+    open.extend(offices);
+    let (plan, points) = story(&open, &doors, &[], true);
+    let out = run(&plan, &points, &[]);
+    let s = &out.spaces;
+    let a = areas(&out);
+    assert_eq!(a.len(), 4);
+    for (got, want) in a.iter().zip([15.6, 15.6, 15.6, 24.4]) {
+        assert!((got - want).abs() < 1e-6, "{a:?}");
+    }
+    assert_eq!(s.doors.len(), 3);
+    assert!(s.doors.iter().all(|d| d.kind == DoorKind::Door));
+    // The corridor is the south-west-most room; every office is its neighbour.
+    let corridor = &s.rooms[0];
+    assert!((corridor.area - 24.4).abs() < 1e-6);
+    assert_eq!(corridor.neighbours, vec!["L0-R2", "L0-R3", "L0-R4"]);
+    // The two partitions between offices pair into 10 cm walls.
+    let partitions = s
+        .walls
+        .iter()
+        .filter(|w| !w.exterior && (w.a[0] - w.b[0]).abs() < 1e-9)
+        .count();
+    assert_eq!(partitions, 2);
+}
+
+#[test]
+fn a_column_near_a_wall_divides_nothing() {
+    // A 40 cm column 1 m from the south wall: its faces pair like a wall's, and the gap to the
+    // wall is door-wide, but the floor goes around it.
+    let (plan, points) = story(
+        &[Rect::new(0.0, 0.0, 6.0, 6.0)],
+        &[],
+        &[Rect::new(2.0, 1.0, 2.4, 1.4)],
+        false,
+    );
+    let out = run(&plan, &[[3.0, 3.0, 0.0]], &[]);
+    assert!(points.is_empty());
+    assert_eq!(out.spaces.rooms.len(), 1);
+    assert!((out.spaces.rooms[0].area - (36.0 - 0.16)).abs() < 1e-6);
+    assert!(out.spaces.doors.is_empty(), "{:?}", out.spaces.doors);
+}
+
+#[test]
+fn a_room_with_two_doors_to_the_same_corridor() {
+    let (plan, points) = story(
+        &[
+            Rect::new(0.0, 0.0, 10.0, 2.0),
+            Rect::new(0.0, 2.1, 10.0, 6.0),
+        ],
+        &[Rect::new(1.0, 2.0, 1.9, 2.1), Rect::new(7.0, 2.0, 7.9, 2.1)],
+        &[],
+        true,
+    );
+    let out = run(&plan, &points, &[]);
+    let a = areas(&out);
+    assert!(
+        a.len() == 2 && (a[0] - 20.0).abs() < 1e-6 && (a[1] - 39.0).abs() < 1e-6,
+        "{a:?}"
+    );
+    assert_eq!(out.spaces.doors.len(), 2);
+}
+
+#[test]
+fn a_window_in_an_outer_wall() {
+    let (plan, _) = story(&[Rect::new(0.0, 0.0, 5.0, 4.0)], &[], &[], false);
+    // The south wall's points every 2 cm, less a window from x 1.5 to 3.0, z 0.9 to 2.1.
+    let mut points = Vec::new();
+    for i in 0..250 {
+        for k in 0..130 {
+            let (x, z) = (i as f64 * 0.02 + 0.01, k as f64 * 0.02 + 0.01);
+            if (1.5..3.0).contains(&x) && (0.9..2.1).contains(&z) {
+                continue;
+            }
+            points.push([x as f32, 0.0, z as f32]);
+        }
+    }
+    let out = run(&plan, &points, &[]);
+    assert_eq!(out.spaces.windows.len(), 1, "{:?}", out.spaces.windows);
+    let w = &out.spaces.windows[0];
+    assert!((w.width - 1.5).abs() < 0.11, "{w:?}");
+    assert!(
+        (w.sill_z - 0.9).abs() < 0.11 && (w.head_z - 2.1).abs() < 0.11,
+        "{w:?}"
+    );
+    assert_eq!(w.room.as_deref(), Some("L0-R1"));
+}
+
+#[test]
+fn bad_parameters_are_named() {
+    let p = RoomsParams {
+        max_door_width: 0.2,
+        ..Default::default()
+    };
+    assert!(matches!(
+        p.check(),
+        Err(RoomsError::BadParam {
+            name: "max_door_width",
+            ..
+        })
+    ));
+    let p = RoomsParams {
+        lintel_coverage: 1.5,
+        ..Default::default()
+    };
+    assert!(p.check().is_err());
+    assert!(RoomsParams::default().check().is_ok());
+}
+
+#[test]
+fn nothing_in_nothing_out() {
+    let plan = StoryPlan::default();
+    let out = find_rooms(
+        &plan,
+        &StoryPoints { xyz: &[] },
+        &[],
+        &RoomsParams::default(),
+        &Grid::local(),
+    )
+    .unwrap();
+    assert!(out.spaces.rooms.is_empty());
+}
