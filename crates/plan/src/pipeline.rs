@@ -297,7 +297,6 @@ pub(crate) fn plan_stories(
     sample: &mut dyn FnMut(&Story, &Cancel) -> Result<WallSamples, SamplesError>,
 ) -> Result<FloorPlan, PlanError> {
     let cloud = input.cloud;
-    let cancel = progress.cancel();
     let mut notes = Vec::new();
     let mut plans = Vec::new();
     let mut min_points_used = Vec::new();
@@ -309,14 +308,11 @@ pub(crate) fn plan_stories(
         let at = |k: f64| (i as f64 + k) / stories.len() as f64;
         // What was assumed about the floor or ceiling goes with the story's plan or failure.
         let assumed = story.assumptions(cloud.origin[2]);
-        let grid = Grid::world(cloud.origin);
         match plan_story(
             story,
             input,
             params,
-            &grid,
             progress,
-            &cancel,
             &mut timings,
             at,
             &mut *sample,
@@ -407,18 +403,18 @@ fn shared_code(codes: &[&'static str]) -> &'static str {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
+/// One story through every stage after `stories`, stopping when `progress`'s cancel says so.
 fn plan_story(
     story: &Story,
     input: &CloudSummary<'_>,
     params: &Params,
-    grid: &Grid,
     progress: &mut dyn Progress,
-    cancel: &Cancel,
     timings: &mut Timings,
     at: impl Fn(f64) -> f64,
     sample: &mut dyn FnMut(&Story, &Cancel) -> Result<WallSamples, SamplesError>,
 ) -> Result<StoryOutcome, PlanError> {
+    let cancel = &progress.cancel();
+    let grid = &Grid::world(input.cloud.origin);
     let mut step = |stage: Stage| {
         progress.report(stage, at(stage.start()));
         cancel.check()
