@@ -42,7 +42,7 @@ work="$(mktemp -d)"
 volume="asbuilt-ci-$$"
 names=("asbuilt-ci-$$-a" "asbuilt-ci-$$-b" "asbuilt-ci-$$-c" "asbuilt-ci-$$-idle")
 cleanup() {
-    for n in "${names[@]}"; do podman rm -f -t 2 "$n" >/dev/null 2>&1 || true; done
+    for n in "${names[@]}"; do podman rm -f -v -t 2 "$n" >/dev/null 2>&1 || true; done
     podman volume rm -f "$volume" >/dev/null 2>&1 || true
     rm -rf "$work"
 }
@@ -227,7 +227,7 @@ echo "HEALTHCHECK healthy; the server runs as uid $uid ($user) (the host's /proc
 # The HEALTHCHECK can fail: the same image with nothing listening is unhealthy.
 podman run -d --name "${names[3]}" --entrypoint sleep "$image" 60 >/dev/null 2>>"$work/podman.log"
 ! podman healthcheck run "${names[3]}" >/dev/null 2>&1 || fail "HEALTHCHECK passes with no server"
-podman rm -f -t 0 "${names[3]}" >/dev/null 2>>"$work/podman.log"
+podman rm -f -v -t 0 "${names[3]}" >/dev/null 2>>"$work/podman.log"
 
 step "plan a simulated scan through 127.0.0.1:$port"
 "$bin" simulate --building rotated_l --points 300000 --out "$work/scan1" >/dev/null
