@@ -26,6 +26,10 @@ pub struct PlanArgs {
     /// Also write a DXF R12 drawing.
     #[arg(long, value_name = "FILE")]
     pub dxf: Option<PathBuf>,
+    /// Also write the GeoJSON in WGS84 longitude and latitude (RFC 7946), from the scan's CRS;
+    /// without one the file has no features and says why.
+    #[arg(long, value_name = "FILE")]
+    pub wgs84: Option<PathBuf>,
     /// Static scanner poses, `{"scans": [{"index", "position", "quaternion"}]}`.
     #[arg(long, value_name = "FILE", conflicts_with = "trajectory")]
     pub poses: Option<PathBuf>,
@@ -94,7 +98,10 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
     if let Some(s) = args.read.scale {
         check_scale(s)?;
     }
-    for out in [&args.output, &args.svg, &args.dxf].into_iter().flatten() {
+    for out in [&args.output, &args.svg, &args.dxf, &args.wgs84]
+        .into_iter()
+        .flatten()
+    {
         check_writable(out)?;
     }
     let stream = match &args.max_memory {
@@ -257,6 +264,7 @@ fn destination<'a>(args: &'a PlanArgs, output: &Output) -> Option<&'a PathBuf> {
         "geojson" => args.output.as_ref(),
         "svg" => args.svg.as_ref(),
         "dxf" => args.dxf.as_ref(),
+        "wgs84" => args.wgs84.as_ref(),
         _ => None,
     }
 }
@@ -383,6 +391,7 @@ mod tests {
             output: Some(dir.path().join("plan.geojson")),
             svg: Some(dir.path().join("plan.svg")),
             dxf: Some(dir.path().join("plan.dxf")),
+            wgs84: Some(dir.path().join("plan.wgs84.geojson")),
             poses: None,
             trajectory: None,
             params: None,
@@ -406,6 +415,11 @@ mod tests {
         assert!(svg.contains("Level 0, floor z = 10.00 m, area 6.0 m²"));
         let dxf = std::fs::read_to_string(dir.path().join("plan.dxf")).unwrap();
         assert!(dxf.contains("AC1009") && dxf.contains("STORY_0") && dxf.ends_with("EOF\n"));
+        // No CRS: the WGS84 copy says so instead of passing metres off as degrees.
+        let text = std::fs::read_to_string(dir.path().join("plan.wgs84.geojson")).unwrap();
+        let wgs: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(wgs["floorplan"]["georeferenced"], false);
+        assert_eq!(wgs["features"].as_array().map(Vec::len), Some(0));
     }
 
     #[test]

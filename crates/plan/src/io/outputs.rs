@@ -17,7 +17,7 @@ pub struct Output {
 }
 
 /// Every result format, GeoJSON (the contract) first.
-pub const OUTPUTS: [Output; 3] = [
+pub const OUTPUTS: [Output; 4] = [
     Output {
         name: "geojson",
         file: "plan.geojson",
@@ -35,6 +35,17 @@ pub const OUTPUTS: [Output; 3] = [
         file: "plan.dxf",
         media_type: "application/dxf",
         write: |plan| super::dxf::to_dxf(plan).map_err(|e| format!("DXF: {e}")),
+    },
+    // RFC 7946's WGS84; without a usable CRS, no features and the reason (io::wgs84).
+    Output {
+        name: "wgs84",
+        file: "plan.wgs84.geojson",
+        media_type: "application/geo+json",
+        write: |plan| {
+            let mut text = super::wgs84::to_wgs84_geojson(plan).to_string();
+            text.push('\n');
+            Ok(text.into_bytes())
+        },
     },
 ];
 
