@@ -2,8 +2,12 @@
 #
 # The asbuilt image: one binary, run as `serve`, `serve --no-workers`, `worker` or `migrate`.
 #   docker build -t asbuilt .
-#   docker run -p 8080:8080 -v asbuilt-data:/var/lib/asbuilt asbuilt
-# See deploy/README.md for the settings that matter.
+#   key=$(openssl rand -hex 16)
+#   docker run -p 8080:8080 -e ASBUILT_API_KEYS="me:$key" -v asbuilt-data:/var/lib/asbuilt asbuilt
+#   curl -H "Authorization: Bearer $key" http://127.0.0.1:8080/v1/jobs
+# An API key is what lets the server listen beyond the container's own loopback: without one it
+# runs in development mode, bound to 127.0.0.1 inside the container, and the port is unreachable.
+# See deploy/README.md for the settings that matter; .ci/container.sh builds and runs this image.
 
 # Build stage. Its cargo command is the one .ci/run runs on every change
 # (tests/service/deploy_manifests.rs checks that they stay equal), so it is known to work.

@@ -178,6 +178,38 @@ fn dockerfile_builds_with_the_command_ci_runs() {
     }
 }
 
+/// The header's first-run lines give the server an API key: without one it binds to loopback
+/// inside the container and the published port reaches nothing. CI runs the image the same way.
+#[test]
+fn dockerfile_first_run_line_gives_a_key_and_ci_runs_the_image() {
+    let dockerfile = read("Dockerfile");
+    let run_line = dockerfile
+        .lines()
+        .take_while(|l| l.starts_with('#'))
+        .find(|l| l.contains("docker run"))
+        .expect("the header shows how to run the image");
+    assert!(run_line.contains("-p 8080:8080"), "{run_line}");
+    assert!(run_line.contains("ASBUILT_API_KEYS="), "{run_line}");
+
+    let ci = read(".ci/run");
+    let release = ci
+        .find("cargo build --release")
+        .expect(".ci/run builds the release binary");
+    let container = ci
+        .find("bash .ci/container.sh")
+        .expect(".ci/run builds and runs the image");
+    assert!(
+        release < container,
+        "the image needs the release binary first"
+    );
+    let script = read(".ci/container.sh");
+    assert!(script.contains("ASBUILT_API_KEYS="));
+    // The script rebuilds this stage on a debootstrapped base of the same suite.
+    let runtime = &dockerfile_stages()[1][0].1;
+    assert_eq!(runtime, "debian:bookworm-slim AS runtime");
+    assert!(script.contains(&format!("FROM {runtime}")));
+}
+
 #[test]
 fn dockerignore_keeps_build_outputs_and_history_out_of_the_context() {
     let ignore = read(".dockerignore");

@@ -31,6 +31,12 @@ pub fn read_e57<R: Read + Seek>(
     check_header(&mut source, len, name)?;
     let mut reader = E57Reader::new(source).map_err(|e| ReadError::named(name, FORMAT, why(&e)))?;
     let scans = reader.pointclouds();
+    // The E57 standard's coordinateMetadata: the CRS, as WKT or a code such as `EPSG:32633`.
+    let crs = reader
+        .coordinate_metadata()
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(String::from);
     let mut total = 0u64;
     for (i, pc) in scans.iter().enumerate() {
         check_scan(pc, i, len, name)?;
@@ -88,6 +94,7 @@ pub fn read_e57<R: Read + Seek>(
         }
     }
     let mut cloud = b.finish(details);
+    cloud.crs = crs;
     let origin = cloud.origin;
     cloud.viewpoints = Viewpoints::Static(
         poses

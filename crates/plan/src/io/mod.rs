@@ -16,6 +16,7 @@ pub(crate) mod sidecar;
 pub(crate) mod spill;
 pub(crate) mod svg;
 mod units;
+pub mod wgs84;
 pub(crate) mod xyz;
 
 use std::fs::File;

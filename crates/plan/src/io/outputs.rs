@@ -25,7 +25,7 @@ pub struct Output {
 }
 
 /// Every result format, GeoJSON (the contract) first.
-pub const OUTPUTS: [Output; 5] = [
+pub const OUTPUTS: [Output; 6] = [
     Output {
         name: "geojson",
         file: "plan.geojson",
@@ -60,6 +60,18 @@ pub const OUTPUTS: [Output; 5] = [
         media_type: "text/csv",
         about: "the room schedule as CSV",
         write: |plan| Ok(rooms_csv::to_csv(plan).into_bytes()),
+    },
+    // RFC 7946's WGS84; without a usable CRS, no features and the reason (io::wgs84).
+    Output {
+        name: "wgs84",
+        file: "plan.wgs84.geojson",
+        media_type: "application/geo+json",
+        about: "the GeoJSON in WGS84 longitude and latitude (RFC 7946), from the scan's CRS; without one, no features and the reason",
+        write: |plan| {
+            let mut text = super::wgs84::to_wgs84_geojson(plan).to_string();
+            text.push('\n');
+            Ok(text.into_bytes())
+        },
     },
 ];
 
