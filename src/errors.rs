@@ -151,7 +151,7 @@ impl Code {
             Code::InvalidSidecar => (
                 "invalid_sidecar",
                 422,
-                "The poses or trajectory part is not a JSON object.",
+                "The poses or trajectory part is not valid (the message names the entry and field), or came with an E57, which carries its own poses.",
             ),
             Code::IdempotencyKeyReused => (
                 "idempotency_key_reused",

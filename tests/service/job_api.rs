@@ -111,6 +111,7 @@ on_both_backends!(
     webhooks_are_signed_retried_and_recorded,
     results_revalidate_and_serve_ranges_and_other_origins,
     events_resume_after_the_last_event_id,
+    sidecars_are_checked_before_the_cloud_is_kept,
 );
 
 /// Every example in the document matches its schema, and every operation of the job API has
@@ -628,7 +629,9 @@ async fn replans_reuse_the_upload_and_share_it_safely(env: &Env) {
     let form = reqwest::multipart::Form::new()
         .part(
             "trajectory",
-            reqwest::multipart::Part::text("{\"samples\": []}"),
+            reqwest::multipart::Part::text(
+                "{\"samples\": [{\"t\": 0, \"position\": [1, 1, 1], \"quaternion\": [1, 0, 0, 0]}]}",
+            ),
         )
         .part(
             "params",
@@ -1333,5 +1336,142 @@ async fn events_resume_after_the_last_event_id(env: &Env) {
     let resumed = sse_events(&String::from_utf8(body).unwrap());
     assert_eq!(resumed.len(), 1, "{resumed:?}");
     assert_eq!(&resumed[0].0, last_id);
+    s.stop().await;
+}
+
+/// A multipart form of named text parts, in the order given.
+fn form(parts: &[(&str, String)]) -> reqwest::multipart::Form {
+    parts
+        .iter()
+        .fold(reqwest::multipart::Form::new(), |f, (n, v)| {
+            f.part(n.to_string(), reqwest::multipart::Part::text(v.clone()))
+        })
+}
+
+/// A bad sidecar is refused with 422 naming the entry at fault, before the cloud is stored
+/// when it comes first, and with the cloud's blob removed when it came first. An E57 sent with
+/// a sidecar is refused as `docs/contract.md` §2 says (it carries its own poses), on create and
+/// on re-plan, in either order of the parts.
+async fn sidecars_are_checked_before_the_cloud_is_kept(env: &Env) {
+    // Clouds over this many bytes are refused with 413 once read: a 422 for a bigger cloud
+    // sent after a bad sidecar shows the cloud was never read.
+    let mut s = env.start(1, |c| c.max_upload_bytes = 4_000).await;
+    let mut contract = Contract::load();
+    let bad_quaternion =
+        r#"{"scans": [{"index": 0, "position": [0, 0, 1], "quaternion": [2, 0, 0, 0]}]}"#;
+    let good_poses =
+        r#"{"scans": [{"index": 0, "position": [0, 0, 1], "quaternion": [1, 0, 0, 0]}]}"#;
+    let backwards = r#"{"samples": [
+        {"t": 1, "position": [0, 0, 1], "quaternion": [1, 0, 0, 0]},
+        {"t": 0.5, "position": [0, 0, 1], "quaternion": [1, 0, 0, 0]}]}"#;
+    let e57 = format!("ASTM-E57\0\0\0\0{}", "\0".repeat(200));
+    let small = xyz(20);
+    let big = xyz(2_000);
+    assert!(big.len() > 4_000 && small.len() < 4_000);
+
+    // What is sent, the parts in order, and what the refusal must name.
+    type Case<'a> = (&'a str, Vec<(&'a str, String)>, &'a str);
+    let cases: Vec<Case> = vec![
+        (
+            "cloud first, bad poses",
+            vec![("cloud", small.clone()), ("poses", bad_quaternion.into())],
+            "scans[0]",
+        ),
+        (
+            "bad poses first, a cloud over the limit",
+            vec![("poses", bad_quaternion.into()), ("cloud", big.clone())],
+            "scans[0]",
+        ),
+        (
+            "a trajectory out of time order",
+            vec![("trajectory", backwards.into()), ("cloud", small.clone())],
+            "samples[1]",
+        ),
+        (
+            "a sidecar that is not JSON",
+            vec![("cloud", small.clone()), ("poses", "scans: []".into())],
+            "not valid pose JSON",
+        ),
+        (
+            "an E57, then poses",
+            vec![("cloud", e57.clone()), ("poses", good_poses.into())],
+            "carries its own scan poses",
+        ),
+        (
+            "poses, then an E57",
+            vec![("poses", good_poses.into()), ("cloud", e57.clone())],
+            "carries its own scan poses",
+        ),
+    ];
+    for (what, parts, names) in cases {
+        let (status, _, body) = call(
+            &mut contract,
+            "POST",
+            "/v1/jobs",
+            s.post("/v1/jobs").multipart(form(&parts)),
+        )
+        .await;
+        let text = String::from_utf8_lossy(&body);
+        assert_eq!(status, 422, "{}: {what}: {text}", env.backend);
+        let e = json(&body);
+        assert_eq!(e["error"]["code"], "invalid_sidecar", "{what}: {e}");
+        let message = e["error"]["message"].as_str().unwrap();
+        assert!(message.contains(names), "{what}: {message}");
+        if what == "cloud first, bad poses" {
+            // The document's example is this very answer.
+            assert_eq!(
+                message,
+                "the `poses` part: scans[0] (index 0): `quaternion` has norm 2.000000, not 1 \
+                 (a rotation's quaternion [w, x, y, z] is unit)"
+            );
+        }
+        let left = crate::support::files_under(&s.blobs());
+        assert!(left.is_empty(), "{what}: blobs left behind: {left:?}");
+    }
+    assert!(listed(&s, "").await.is_empty(), "no job was made");
+
+    // A good sidecar still makes a job; an E57 alone too; a re-plan of the E57 with poses not.
+    let (status, _, body) = call(
+        &mut contract,
+        "POST",
+        "/v1/jobs",
+        s.post("/v1/jobs")
+            .multipart(form(&[("poses", good_poses.into()), ("cloud", small)])),
+    )
+    .await;
+    assert_eq!(status, 202, "{}", String::from_utf8_lossy(&body));
+    let posed = json(&body);
+    assert_eq!(posed["upload"]["sidecar"], "poses");
+    let (status, _, body) = call(
+        &mut contract,
+        "POST",
+        "/v1/jobs",
+        s.post("/v1/jobs").multipart(form(&[("cloud", e57)])),
+    )
+    .await;
+    assert_eq!(status, 202, "{}", String::from_utf8_lossy(&body));
+    let e57_job = json(&body)["id"].as_str().unwrap().to_string();
+    // Both jobs finish first, so their results are not counted as the re-plan's blobs.
+    for id in [posed["id"].as_str().unwrap(), e57_job.as_str()] {
+        s.wait_done(id, Duration::from_secs(20)).await;
+    }
+    let before = crate::support::files_under(&s.blobs()).len();
+    let path = format!("/v1/jobs/{e57_job}/replan");
+    let (status, _, body) = call(
+        &mut contract,
+        "POST",
+        &path,
+        s.post(&path)
+            .multipart(form(&[("poses", good_poses.into())])),
+    )
+    .await;
+    assert_eq!(status, 422, "{}", String::from_utf8_lossy(&body));
+    assert_eq!(json(&body)["error"]["code"], "invalid_sidecar");
+    assert_eq!(
+        crate::support::files_under(&s.blobs()).len(),
+        before,
+        "the refused re-plan kept nothing"
+    );
+    assert_eq!(listed(&s, "").await.len(), 2);
     s.stop().await;
 }
