@@ -12,13 +12,18 @@ use asbuilt::worker::pipeline::Pipeline;
 use serde_json::Value;
 
 use crate::support::contract::Contract;
-use crate::support::engines::{postgres_only, Engines};
+use crate::support::engines::{engines, postgres_only, unique, Engines};
+
+/// The S3 bucket the suites share (each test under a prefix of its own).
+const SUITE_BUCKET: &str = "asbuilt-suite";
 use crate::support::server::{self, expect_error, xyz, Server};
 
 /// Where a case's server keeps its jobs.
 struct Env {
     backend: &'static str,
     pg: Option<(Engines, String)>,
+    /// Blobs in S3 (moto in tests) under this prefix of the `asbuilt-suite` bucket.
+    s3: Option<String>,
 }
 
 impl Env {
@@ -26,7 +31,48 @@ impl Env {
         Env {
             backend: "sqlite",
             pg: None,
+            s3: None,
         }
+    }
+
+    /// PostgreSQL and S3 (`ASBUILT_TEST_S3_ENDPOINT` too); skipped without them.
+    async fn postgres_s3(test: &str) -> Option<Env> {
+        let engines = engines(test)?;
+        engines.ensure_bucket(SUITE_BUCKET).await;
+        let schema = engines.new_schema("jobapi").await;
+        Some(Env {
+            backend: "postgres+s3",
+            pg: Some((engines, schema)),
+            s3: Some(unique("jobapi")),
+        })
+    }
+
+    /// Every blob the server keeps: files under its directory, or objects under its prefix.
+    async fn blobs(&self, s: &Server) -> Vec<String> {
+        let (Some(prefix), Some((engines, _))) = (&self.s3, &self.pg) else {
+            return crate::support::files_under(&s.blobs())
+                .into_iter()
+                .map(|p| p.display().to_string())
+                .collect();
+        };
+        use futures_util::TryStreamExt;
+        use object_store::ObjectStore;
+        let store = object_store::aws::AmazonS3Builder::new()
+            .with_endpoint(&engines.s3_endpoint)
+            .with_allow_http(true)
+            .with_region("us-east-1")
+            .with_access_key_id("asbuilt-test")
+            .with_secret_access_key("asbuilt-test")
+            .with_bucket_name(SUITE_BUCKET)
+            .build()
+            .unwrap();
+        let prefix = object_store::path::Path::from(prefix.as_str());
+        store
+            .list(Some(&prefix))
+            .map_ok(|m| m.location.to_string())
+            .try_collect()
+            .await
+            .unwrap()
     }
 
     async fn postgres(test: &str) -> Option<Env> {
@@ -35,6 +81,7 @@ impl Env {
         Some(Env {
             backend: "postgres",
             pg: Some((engines, schema)),
+            s3: None,
         })
     }
 
@@ -57,8 +104,18 @@ impl Env {
             };
             asbuilt::app::open_store(&c).await.unwrap();
         }
+        let s3 = self.pg.as_ref().map(|(e, _)| e.s3_options());
+        let storage = self.s3.clone();
         server::start(pipeline, |c| {
             c.database_url = url;
+            if let (Some(prefix), Some(o)) = (storage, s3) {
+                c.storage = Some(format!("s3://{SUITE_BUCKET}/{prefix}"));
+                c.s3_endpoint = o.endpoint;
+                c.s3_region = o.region;
+                c.s3_access_key_id = o.access_key_id;
+                c.s3_secret_access_key = o.secret_access_key;
+                c.s3_allow_http = true;
+            }
             tweak(c);
         })
         .await
@@ -113,6 +170,17 @@ on_both_backends!(
     events_resume_after_the_last_event_id,
     sidecars_are_checked_before_the_cloud_is_kept,
 );
+
+/// The sidecar checks again with blobs in S3, where a refused cloud is an object to remove.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn sidecars_are_checked_before_the_cloud_is_kept_in_s3() {
+    let Some(env) = Env::postgres_s3("sidecars_are_checked_before_the_cloud_is_kept_in_s3").await
+    else {
+        return;
+    };
+    sidecars_are_checked_before_the_cloud_is_kept(&env).await;
+    env.finish().await;
+}
 
 /// Every example in the document matches its schema, and every operation of the job API has
 /// an example of its request (where it takes one) and of its successful answer.
@@ -1425,7 +1493,7 @@ async fn sidecars_are_checked_before_the_cloud_is_kept(env: &Env) {
                  (a rotation's quaternion [w, x, y, z] is unit)"
             );
         }
-        let left = crate::support::files_under(&s.blobs());
+        let left = env.blobs(&s).await;
         assert!(left.is_empty(), "{what}: blobs left behind: {left:?}");
     }
     assert!(listed(&s, "").await.is_empty(), "no job was made");
@@ -1455,7 +1523,8 @@ async fn sidecars_are_checked_before_the_cloud_is_kept(env: &Env) {
     for id in [posed["id"].as_str().unwrap(), e57_job.as_str()] {
         s.wait_done(id, Duration::from_secs(20)).await;
     }
-    let before = crate::support::files_under(&s.blobs()).len();
+    let before = env.blobs(&s).await.len();
+    assert!(before >= 2, "the two jobs' clouds are seen: {before}");
     let path = format!("/v1/jobs/{e57_job}/replan");
     let (status, _, body) = call(
         &mut contract,
@@ -1468,7 +1537,7 @@ async fn sidecars_are_checked_before_the_cloud_is_kept(env: &Env) {
     assert_eq!(status, 422, "{}", String::from_utf8_lossy(&body));
     assert_eq!(json(&body)["error"]["code"], "invalid_sidecar");
     assert_eq!(
-        crate::support::files_under(&s.blobs()).len(),
+        env.blobs(&s).await.len(),
         before,
         "the refused re-plan kept nothing"
     );
