@@ -29,6 +29,12 @@ pub const ROUTES: &[(&str, &str)] = &[
     ("POST", "/v1/jobs/{id}/cancel"),
     ("POST", "/v1/jobs/{id}/replan"),
     ("GET", "/v1/jobs/{id}/deliveries"),
+    ("POST", "/v1/uploads"),
+    ("HEAD", "/v1/uploads/{id}"),
+    ("GET", "/v1/uploads/{id}"),
+    ("PATCH", "/v1/uploads/{id}"),
+    ("DELETE", "/v1/uploads/{id}"),
+    ("POST", "/v1/uploads/{id}/job"),
 ];
 
 /// Every route: [`ROUTES`], then a download per result of `asbuilt_plan::io::outputs::OUTPUTS`
@@ -161,6 +167,16 @@ pub fn build(state: AppState) -> Router {
             "/v1/jobs/{id}/deliveries",
             get(jobs::deliveries::deliveries),
         )
+        .route("/v1/uploads", post(jobs::uploads::open))
+        .route(
+            "/v1/uploads/{id}",
+            get(jobs::uploads::show)
+                .head(jobs::uploads::head)
+                .patch(jobs::uploads::append)
+                .delete(jobs::uploads::remove)
+                .layer(DefaultBodyLimit::disable()),
+        )
+        .route("/v1/uploads/{id}/job", post(jobs::uploads::commit))
         // Every result file (`plan.geojson`, ...); `events` is matched first as the fixed path.
         .route("/v1/jobs/{id}/{file}", get(jobs::results::file))
         .fallback(controllers::route_not_found)

@@ -169,6 +169,7 @@ on_both_backends!(
     results_revalidate_and_serve_ranges_and_other_origins,
     events_resume_after_the_last_event_id,
     sidecars_are_checked_before_the_cloud_is_kept,
+    resumable_uploads_resume_after_a_drop_and_expire,
 );
 
 /// The sidecar checks again with blobs in S3, where a refused cloud is an object to remove.
@@ -1542,5 +1543,141 @@ async fn sidecars_are_checked_before_the_cloud_is_kept(env: &Env) {
         "the refused re-plan kept nothing"
     );
     assert_eq!(listed(&s, "").await.len(), 2);
+    s.stop().await;
+}
+
+/// The objects of upload sessions the server still keeps.
+async fn session_blobs(env: &Env, s: &Server) -> Vec<String> {
+    env.blobs(s)
+        .await
+        .into_iter()
+        .filter(|k| k.contains("uploads/"))
+        .collect()
+}
+
+async fn offset(s: &Server, location: &str) -> (u16, Option<u64>) {
+    let res = s
+        .client
+        .head(s.url(location))
+        .header("Tus-Resumable", "1.0.0")
+        .send()
+        .await
+        .unwrap();
+    let offset = res
+        .headers()
+        .get("upload-offset")
+        .map(|v| v.to_str().unwrap().parse().unwrap());
+    (res.status().as_u16(), offset)
+}
+
+fn patch(s: &Server, location: &str, at: u64, body: reqwest::Body) -> reqwest::RequestBuilder {
+    s.client
+        .patch(s.url(location))
+        .header("Tus-Resumable", "1.0.0")
+        .header("Content-Type", "application/offset+octet-stream")
+        .header("Upload-Offset", at.to_string())
+        .body(body)
+}
+
+/// tus: open a session, send half and drop the connection, ask where to resume, send the
+/// rest, and make a job of it that plans; wrong offsets and early commits are refused; an
+/// abandoned session expires and the sweeper removes its bytes.
+async fn resumable_uploads_resume_after_a_drop_and_expire(env: &Env) {
+    let mut s = env.start(1, |c| c.upload_session_secs = 10).await;
+    let cloud = xyz(3_000).into_bytes();
+    let total = cloud.len() as u64;
+    let res = s
+        .post("/v1/uploads")
+        .header("Tus-Resumable", "1.0.0")
+        .header("Upload-Length", total.to_string())
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(res.status(), 201, "{}", env.backend);
+    let location = res.headers()["location"].to_str().unwrap().to_string();
+    assert_eq!(res.headers()["upload-offset"], "0");
+
+    // Half of a PATCH that declares the whole rest, then the connection drops.
+    let half = cloud.len() / 2;
+    {
+        use tokio::io::AsyncWriteExt;
+        let addr = s.url("").trim_start_matches("http://").to_string();
+        let mut tcp = tokio::net::TcpStream::connect(addr).await.unwrap();
+        let head = format!(
+            "PATCH {location} HTTP/1.1\r\nHost: asbuilt\r\nTus-Resumable: 1.0.0\r\n\
+             Content-Type: application/offset+octet-stream\r\nUpload-Offset: 0\r\n\
+             Content-Length: {total}\r\n\r\n"
+        );
+        tcp.write_all(head.as_bytes()).await.unwrap();
+        tcp.write_all(&cloud[..half]).await.unwrap();
+        tcp.flush().await.unwrap();
+        tokio::time::sleep(Duration::from_millis(200)).await;
+        // Dropped here: the server sees the body end early.
+    }
+    // The server finishes storing what arrived shortly after the drop.
+    let end = Instant::now() + Duration::from_secs(10);
+    let at = loop {
+        let (status, at) = offset(&s, &location).await;
+        assert_eq!(status, 200);
+        if at == Some(half as u64) || Instant::now() > end {
+            break at.unwrap();
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    };
+    assert_eq!(at, half as u64, "{}: resume where it stopped", env.backend);
+
+    // A PATCH at another offset, and a job of an incomplete upload, are conflicts.
+    let res = patch(&s, &location, 0, cloud[..10].to_vec().into())
+        .send()
+        .await
+        .unwrap();
+    expect_error(res, 409, "upload_conflict").await;
+    let res = s.post(&format!("{location}/job")).send().await.unwrap();
+    expect_error(res, 409, "upload_conflict").await;
+
+    let res = patch(&s, &location, at, cloud[half..].to_vec().into())
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(res.status(), 204);
+    assert_eq!(res.headers()["upload-offset"], total.to_string().as_str());
+
+    let res = s
+        .post(&format!("{location}/job?tag=resumed&filename=room.xyz"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(res.status(), 202, "{}", env.backend);
+    let job: Value = res.json().await.unwrap();
+    assert_eq!(job["upload"]["bytes"], total);
+    assert_eq!(job["upload"]["format"], "xyz");
+    assert_eq!(job["tags"], serde_json::json!(["resumed"]));
+    let id = job["id"].as_str().unwrap();
+    let done = s.wait_done(id, Duration::from_secs(20)).await;
+    assert_eq!(done["status"], "succeeded", "{done}");
+    assert_eq!(done["input"]["points"], 3_000, "the whole cloud, in order");
+    assert_eq!(offset(&s, &location).await.0, 404, "the session is used up");
+    assert!(session_blobs(env, &s).await.is_empty());
+
+    // An abandoned session: its bytes go when it expires.
+    let res = s
+        .post("/v1/uploads")
+        .header("Upload-Length", total.to_string())
+        .send()
+        .await
+        .unwrap();
+    let abandoned = res.headers()["location"].to_str().unwrap().to_string();
+    let res = patch(&s, &abandoned, 0, cloud[..100].to_vec().into())
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(res.status(), 204);
+    assert_eq!(session_blobs(env, &s).await.len(), 2, "record and one part");
+    let end = Instant::now() + Duration::from_secs(30);
+    while !session_blobs(env, &s).await.is_empty() {
+        assert!(Instant::now() < end, "the sweeper left the session");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    assert_eq!(offset(&s, &abandoned).await.0, 404);
     s.stop().await;
 }
