@@ -99,11 +99,20 @@ pub fn cors(origins: &[String]) -> Result<Option<CorsLayer>, String> {
         header::CONTENT_RANGE,
         header::RETRY_AFTER,
         HeaderName::from_static("idempotent-replayed"),
+        HeaderName::from_static("tus-resumable"),
+        HeaderName::from_static("upload-length"),
+        HeaderName::from_static("upload-offset"),
     ];
     Ok(Some(
         CorsLayer::new()
             .allow_origin(allow)
-            .allow_methods([Method::GET, Method::POST, Method::DELETE])
+            .allow_methods([
+                Method::GET,
+                Method::HEAD,
+                Method::POST,
+                Method::PATCH,
+                Method::DELETE,
+            ])
             .allow_headers([
                 header::AUTHORIZATION,
                 header::CONTENT_TYPE,
@@ -112,6 +121,9 @@ pub fn cors(origins: &[String]) -> Result<Option<CorsLayer>, String> {
                 header::IF_RANGE,
                 HeaderName::from_static("idempotency-key"),
                 HeaderName::from_static("last-event-id"),
+                HeaderName::from_static("tus-resumable"),
+                HeaderName::from_static("upload-length"),
+                HeaderName::from_static("upload-offset"),
             ])
             .expose_headers(expose)
             .max_age(std::time::Duration::from_secs(3600)),

@@ -183,6 +183,17 @@ async fn sidecars_are_checked_before_the_cloud_is_kept_in_s3() {
     env.finish().await;
 }
 
+/// Resumable uploads with blobs in S3, where each PATCH is an object of its own.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn resumable_uploads_resume_after_a_drop_and_expire_in_s3() {
+    let test = "resumable_uploads_resume_after_a_drop_and_expire_in_s3";
+    let Some(env) = Env::postgres_s3(test).await else {
+        return;
+    };
+    resumable_uploads_resume_after_a_drop_and_expire(&env).await;
+    env.finish().await;
+}
+
 /// Every example in the document matches its schema, and every operation of the job API has
 /// an example of its request (where it takes one) and of its successful answer.
 #[test]
@@ -1586,16 +1597,20 @@ async fn resumable_uploads_resume_after_a_drop_and_expire(env: &Env) {
     let mut s = env.start(1, |c| c.upload_session_secs = 10).await;
     let cloud = xyz(3_000).into_bytes();
     let total = cloud.len() as u64;
-    let res = s
-        .post("/v1/uploads")
-        .header("Tus-Resumable", "1.0.0")
-        .header("Upload-Length", total.to_string())
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(res.status(), 201, "{}", env.backend);
-    let location = res.headers()["location"].to_str().unwrap().to_string();
-    assert_eq!(res.headers()["upload-offset"], "0");
+    let mut contract = Contract::load();
+    let (status, headers, body) = call(
+        &mut contract,
+        "POST",
+        "/v1/uploads",
+        s.post("/v1/uploads")
+            .header("Tus-Resumable", "1.0.0")
+            .header("Upload-Length", total.to_string()),
+    )
+    .await;
+    assert_eq!(status, 201, "{}", env.backend);
+    let location = headers["location"].to_str().unwrap().to_string();
+    assert_eq!(headers["upload-offset"], "0");
+    assert_eq!(json(&body)["length"], total);
 
     // Half of a PATCH that declares the whole rest, then the connection drops.
     let half = cloud.len() / 2;
@@ -1632,8 +1647,10 @@ async fn resumable_uploads_resume_after_a_drop_and_expire(env: &Env) {
         .await
         .unwrap();
     expect_error(res, 409, "upload_conflict").await;
-    let res = s.post(&format!("{location}/job")).send().await.unwrap();
-    expect_error(res, 409, "upload_conflict").await;
+    let path = format!("{location}/job");
+    let (status, _, body) = call(&mut contract, "POST", &path, s.post(&path)).await;
+    assert_eq!(status, 409);
+    assert_eq!(json(&body)["error"]["code"], "upload_conflict");
 
     let res = patch(&s, &location, at, cloud[half..].to_vec().into())
         .send()
@@ -1642,13 +1659,10 @@ async fn resumable_uploads_resume_after_a_drop_and_expire(env: &Env) {
     assert_eq!(res.status(), 204);
     assert_eq!(res.headers()["upload-offset"], total.to_string().as_str());
 
-    let res = s
-        .post(&format!("{location}/job?tag=resumed&filename=room.xyz"))
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(res.status(), 202, "{}", env.backend);
-    let job: Value = res.json().await.unwrap();
+    let path = format!("{location}/job?tag=resumed&filename=room.xyz");
+    let (status, _, body) = call(&mut contract, "POST", &path, s.post(&path)).await;
+    assert_eq!(status, 202, "{}", env.backend);
+    let job = json(&body);
     assert_eq!(job["upload"]["bytes"], total);
     assert_eq!(job["upload"]["format"], "xyz");
     assert_eq!(job["tags"], serde_json::json!(["resumed"]));
