@@ -46,6 +46,9 @@ pub struct Config {
     pub job_timeout_secs: u64,
     /// How long a finished job's uploads and results are kept, hours.
     pub retention_hours: u64,
+    /// How long a resumable upload session (`/v1/uploads`) lives, seconds; then the sweeper
+    /// removes it and its bytes.
+    pub upload_session_secs: u64,
     /// A worker's lease; a job whose worker is silent this long is retried, seconds.
     pub lease_secs: u64,
     /// Claims a job may use before it fails with `worker_lost`.
@@ -122,6 +125,7 @@ impl Default for Config {
             max_points: 200_000_000,
             job_timeout_secs: 3600,
             retention_hours: 24 * 7,
+            upload_session_secs: 24 * 3600,
             lease_secs: 30,
             max_attempts: 3,
             shutdown_timeout_secs: 30,
@@ -198,6 +202,9 @@ pub struct ConfigArgs {
     /// Retention of finished jobs' data, hours [default: 168].
     #[arg(long, env = "ASBUILT_RETENTION_HOURS", value_name = "HOURS")]
     pub retention_hours: Option<u64>,
+    /// Lifetime of a resumable upload session, seconds [default: 86400].
+    #[arg(long, env = "ASBUILT_UPLOAD_SESSION", value_name = "SECS")]
+    pub upload_session: Option<u64>,
     /// Worker lease, seconds [default: 30].
     #[arg(long, env = "ASBUILT_LEASE", value_name = "SECS")]
     pub lease: Option<u64>,
@@ -304,6 +311,7 @@ impl ConfigArgs {
             max_upload => max_upload_bytes, max_sidecar => max_sidecar_bytes,
             max_points => max_points, job_timeout => job_timeout_secs,
             retention_hours => retention_hours, lease => lease_secs,
+            upload_session => upload_session_secs,
             max_attempts => max_attempts, shutdown_timeout => shutdown_timeout_secs,
             presign => presign_secs, rate_limit => rate_limit, rate_burst => rate_burst,
             max_queued => max_queued, upload_idle_timeout => upload_idle_timeout_secs,
@@ -444,6 +452,11 @@ impl Config {
             allow_http: self.s3_allow_http,
             presign: (self.presign_secs > 0).then(|| Duration::from_secs(self.presign_secs)),
         }
+    }
+
+    /// Lifetime of an upload session, milliseconds.
+    pub fn upload_session_ms(&self) -> i64 {
+        i64::try_from(self.upload_session_secs.saturating_mul(1000)).unwrap_or(i64::MAX)
     }
 
     /// Retention of finished jobs, milliseconds.

@@ -20,6 +20,7 @@ pub enum Code {
     UploadTimeout,
     ResultNotReady,
     JobFinished,
+    UploadConflict,
     PayloadTooLarge,
     UriTooLong,
     RangeNotSatisfiable,
@@ -36,7 +37,7 @@ pub enum Code {
 }
 
 /// Every code, in the order the OpenAPI document lists them.
-pub const CODES: [Code; 23] = [
+pub const CODES: [Code; 24] = [
     Code::InvalidRequest,
     Code::InvalidMultipart,
     Code::Unauthorized,
@@ -47,6 +48,7 @@ pub const CODES: [Code; 23] = [
     Code::UploadTimeout,
     Code::ResultNotReady,
     Code::JobFinished,
+    Code::UploadConflict,
     Code::PayloadTooLarge,
     Code::UriTooLong,
     Code::RangeNotSatisfiable,
@@ -122,6 +124,11 @@ impl Code {
                 409,
                 "The job already succeeded or failed, so it cannot be cancelled.",
             ),
+            Code::UploadConflict => (
+                "upload_conflict",
+                409,
+                "A resumable upload's `Upload-Offset` is not where it stands (HEAD tells), a PATCH goes past its length, or a job was asked of an incomplete upload.",
+            ),
             Code::PayloadTooLarge => (
                 "payload_too_large",
                 413,
@@ -151,7 +158,7 @@ impl Code {
             Code::InvalidSidecar => (
                 "invalid_sidecar",
                 422,
-                "The poses or trajectory part is not a JSON object.",
+                "The poses or trajectory part is not valid (the message names the entry and field), or came with an E57, which carries its own poses.",
             ),
             Code::IdempotencyKeyReused => (
                 "idempotency_key_reused",

@@ -29,6 +29,12 @@ pub const ROUTES: &[(&str, &str)] = &[
     ("POST", "/v1/jobs/{id}/cancel"),
     ("POST", "/v1/jobs/{id}/replan"),
     ("GET", "/v1/jobs/{id}/deliveries"),
+    ("POST", "/v1/uploads"),
+    ("HEAD", "/v1/uploads/{id}"),
+    ("GET", "/v1/uploads/{id}"),
+    ("PATCH", "/v1/uploads/{id}"),
+    ("DELETE", "/v1/uploads/{id}"),
+    ("POST", "/v1/uploads/{id}/job"),
 ];
 
 /// Every route: [`ROUTES`], then a download per result of `asbuilt_plan::io::outputs::OUTPUTS`
@@ -93,11 +99,20 @@ pub fn cors(origins: &[String]) -> Result<Option<CorsLayer>, String> {
         header::CONTENT_RANGE,
         header::RETRY_AFTER,
         HeaderName::from_static("idempotent-replayed"),
+        HeaderName::from_static("tus-resumable"),
+        HeaderName::from_static("upload-length"),
+        HeaderName::from_static("upload-offset"),
     ];
     Ok(Some(
         CorsLayer::new()
             .allow_origin(allow)
-            .allow_methods([Method::GET, Method::POST, Method::DELETE])
+            .allow_methods([
+                Method::GET,
+                Method::HEAD,
+                Method::POST,
+                Method::PATCH,
+                Method::DELETE,
+            ])
             .allow_headers([
                 header::AUTHORIZATION,
                 header::CONTENT_TYPE,
@@ -106,6 +121,9 @@ pub fn cors(origins: &[String]) -> Result<Option<CorsLayer>, String> {
                 header::IF_RANGE,
                 HeaderName::from_static("idempotency-key"),
                 HeaderName::from_static("last-event-id"),
+                HeaderName::from_static("tus-resumable"),
+                HeaderName::from_static("upload-length"),
+                HeaderName::from_static("upload-offset"),
             ])
             .expose_headers(expose)
             .max_age(std::time::Duration::from_secs(3600)),
@@ -161,6 +179,16 @@ pub fn build(state: AppState) -> Router {
             "/v1/jobs/{id}/deliveries",
             get(jobs::deliveries::deliveries),
         )
+        .route("/v1/uploads", post(jobs::uploads::open))
+        .route(
+            "/v1/uploads/{id}",
+            get(jobs::uploads::show)
+                .head(jobs::uploads::head)
+                .patch(jobs::uploads::append)
+                .delete(jobs::uploads::remove)
+                .layer(DefaultBodyLimit::disable()),
+        )
+        .route("/v1/uploads/{id}/job", post(jobs::uploads::commit))
         // Every result file (`plan.geojson`, ...); `events` is matched first as the fixed path.
         .route("/v1/jobs/{id}/{file}", get(jobs::results::file))
         .fallback(controllers::route_not_found)

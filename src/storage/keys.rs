@@ -27,3 +27,26 @@ pub fn result(id: JobId, name: &str) -> String {
     debug_assert!(asbuilt_plan::io::outputs::by_file(name).is_some());
     format!("jobs/{id}/result/{name}")
 }
+
+/// Everything a resumable upload session owns.
+pub fn upload_prefix(id: JobId) -> String {
+    format!("uploads/{id}")
+}
+
+/// Every upload session.
+pub const UPLOADS: &str = "uploads";
+
+/// The session's record: its tenant, length and expiry.
+pub fn upload_session(id: JobId) -> String {
+    format!("uploads/{id}/session.json")
+}
+
+/// The session's parts, one per `PATCH`, named by their offset so they list in order.
+pub fn upload_parts(id: JobId) -> String {
+    format!("uploads/{id}/parts")
+}
+
+/// The part that starts at `offset`.
+pub fn upload_part(id: JobId, offset: u64) -> String {
+    format!("uploads/{id}/parts/{offset:020}")
+}

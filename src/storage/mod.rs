@@ -89,6 +89,8 @@ pub trait BlobStore: Send + Sync + 'static {
     }
     /// Deletes every object under `prefix` (a folder such as `jobs/<id>/`).
     async fn delete_prefix(&self, prefix: &str) -> Result<(), BlobError>;
+    /// Every object under `prefix`, as (key, size), sorted by key.
+    async fn list(&self, prefix: &str) -> Result<Vec<(String, u64)>, BlobError>;
     /// Checks the store answers (readiness).
     async fn ping(&self) -> Result<(), BlobError>;
     /// A pre-signed URL to GET `key` directly from the store, when the store offers them and
@@ -277,6 +279,18 @@ impl BlobStore for ObjectBlobStore {
 
     fn local_path(&self, key: &str) -> Option<PathBuf> {
         self.root.as_ref().map(|r| r.join(key))
+    }
+
+    async fn list(&self, prefix: &str) -> Result<Vec<(String, u64)>, BlobError> {
+        let prefix = ObjectPath::from(prefix);
+        let mut all: Vec<(String, u64)> = self
+            .inner
+            .list(Some(&prefix))
+            .map_ok(|meta| (meta.location.to_string(), meta.size))
+            .try_collect()
+            .await?;
+        all.sort();
+        Ok(all)
     }
 
     async fn delete_prefix(&self, prefix: &str) -> Result<(), BlobError> {

@@ -174,6 +174,10 @@ impl BlobStore for S3BlobStore {
         self.objects.delete_prefix(prefix).await
     }
 
+    async fn list(&self, prefix: &str) -> Result<Vec<(String, u64)>, BlobError> {
+        self.objects.list(prefix).await
+    }
+
     async fn ping(&self) -> Result<(), BlobError> {
         self.objects.ping().await
     }

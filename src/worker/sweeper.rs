@@ -60,5 +60,6 @@ pub async fn sweep(state: &AppState) -> anyhow::Result<()> {
         }
     }
     state.store.forget_expired(now - TOMBSTONE_MS).await?;
+    crate::controllers::jobs::uploads::expire(state).await?;
     Ok(())
 }

@@ -12,13 +12,18 @@ use asbuilt::worker::pipeline::Pipeline;
 use serde_json::Value;
 
 use crate::support::contract::Contract;
-use crate::support::engines::{postgres_only, Engines};
+use crate::support::engines::{engines, postgres_only, unique, Engines};
+
+/// The S3 bucket the suites share (each test under a prefix of its own).
+const SUITE_BUCKET: &str = "asbuilt-suite";
 use crate::support::server::{self, expect_error, xyz, Server};
 
 /// Where a case's server keeps its jobs.
 struct Env {
     backend: &'static str,
     pg: Option<(Engines, String)>,
+    /// Blobs in S3 (moto in tests) under this prefix of the `asbuilt-suite` bucket.
+    s3: Option<String>,
 }
 
 impl Env {
@@ -26,7 +31,48 @@ impl Env {
         Env {
             backend: "sqlite",
             pg: None,
+            s3: None,
         }
+    }
+
+    /// PostgreSQL and S3 (`ASBUILT_TEST_S3_ENDPOINT` too); skipped without them.
+    async fn postgres_s3(test: &str) -> Option<Env> {
+        let engines = engines(test)?;
+        engines.ensure_bucket(SUITE_BUCKET).await;
+        let schema = engines.new_schema("jobapi").await;
+        Some(Env {
+            backend: "postgres+s3",
+            pg: Some((engines, schema)),
+            s3: Some(unique("jobapi")),
+        })
+    }
+
+    /// Every blob the server keeps: files under its directory, or objects under its prefix.
+    async fn blobs(&self, s: &Server) -> Vec<String> {
+        let (Some(prefix), Some((engines, _))) = (&self.s3, &self.pg) else {
+            return crate::support::files_under(&s.blobs())
+                .into_iter()
+                .map(|p| p.display().to_string())
+                .collect();
+        };
+        use futures_util::TryStreamExt;
+        use object_store::ObjectStore;
+        let store = object_store::aws::AmazonS3Builder::new()
+            .with_endpoint(&engines.s3_endpoint)
+            .with_allow_http(true)
+            .with_region("us-east-1")
+            .with_access_key_id("asbuilt-test")
+            .with_secret_access_key("asbuilt-test")
+            .with_bucket_name(SUITE_BUCKET)
+            .build()
+            .unwrap();
+        let prefix = object_store::path::Path::from(prefix.as_str());
+        store
+            .list(Some(&prefix))
+            .map_ok(|m| m.location.to_string())
+            .try_collect()
+            .await
+            .unwrap()
     }
 
     async fn postgres(test: &str) -> Option<Env> {
@@ -35,6 +81,7 @@ impl Env {
         Some(Env {
             backend: "postgres",
             pg: Some((engines, schema)),
+            s3: None,
         })
     }
 
@@ -57,8 +104,18 @@ impl Env {
             };
             asbuilt::app::open_store(&c).await.unwrap();
         }
+        let s3 = self.pg.as_ref().map(|(e, _)| e.s3_options());
+        let storage = self.s3.clone();
         server::start(pipeline, |c| {
             c.database_url = url;
+            if let (Some(prefix), Some(o)) = (storage, s3) {
+                c.storage = Some(format!("s3://{SUITE_BUCKET}/{prefix}"));
+                c.s3_endpoint = o.endpoint;
+                c.s3_region = o.region;
+                c.s3_access_key_id = o.access_key_id;
+                c.s3_secret_access_key = o.secret_access_key;
+                c.s3_allow_http = true;
+            }
             tweak(c);
         })
         .await
@@ -111,7 +168,31 @@ on_both_backends!(
     webhooks_are_signed_retried_and_recorded,
     results_revalidate_and_serve_ranges_and_other_origins,
     events_resume_after_the_last_event_id,
+    sidecars_are_checked_before_the_cloud_is_kept,
+    resumable_uploads_resume_after_a_drop_and_expire,
 );
+
+/// The sidecar checks again with blobs in S3, where a refused cloud is an object to remove.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn sidecars_are_checked_before_the_cloud_is_kept_in_s3() {
+    let Some(env) = Env::postgres_s3("sidecars_are_checked_before_the_cloud_is_kept_in_s3").await
+    else {
+        return;
+    };
+    sidecars_are_checked_before_the_cloud_is_kept(&env).await;
+    env.finish().await;
+}
+
+/// Resumable uploads with blobs in S3, where each PATCH is an object of its own.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn resumable_uploads_resume_after_a_drop_and_expire_in_s3() {
+    let test = "resumable_uploads_resume_after_a_drop_and_expire_in_s3";
+    let Some(env) = Env::postgres_s3(test).await else {
+        return;
+    };
+    resumable_uploads_resume_after_a_drop_and_expire(&env).await;
+    env.finish().await;
+}
 
 /// Every example in the document matches its schema, and every operation of the job API has
 /// an example of its request (where it takes one) and of its successful answer.
@@ -628,7 +709,9 @@ async fn replans_reuse_the_upload_and_share_it_safely(env: &Env) {
     let form = reqwest::multipart::Form::new()
         .part(
             "trajectory",
-            reqwest::multipart::Part::text("{\"samples\": []}"),
+            reqwest::multipart::Part::text(
+                "{\"samples\": [{\"t\": 0, \"position\": [1, 1, 1], \"quaternion\": [1, 0, 0, 0]}]}",
+            ),
         )
         .part(
             "params",
@@ -1333,5 +1416,282 @@ async fn events_resume_after_the_last_event_id(env: &Env) {
     let resumed = sse_events(&String::from_utf8(body).unwrap());
     assert_eq!(resumed.len(), 1, "{resumed:?}");
     assert_eq!(&resumed[0].0, last_id);
+    s.stop().await;
+}
+
+/// A multipart form of named text parts, in the order given.
+fn form(parts: &[(&str, String)]) -> reqwest::multipart::Form {
+    parts
+        .iter()
+        .fold(reqwest::multipart::Form::new(), |f, (n, v)| {
+            f.part(n.to_string(), reqwest::multipart::Part::text(v.clone()))
+        })
+}
+
+/// A bad sidecar is refused with 422 naming the entry at fault, before the cloud is stored
+/// when it comes first, and with the cloud's blob removed when it came first. An E57 sent with
+/// a sidecar is refused as `docs/contract.md` §2 says (it carries its own poses), on create and
+/// on re-plan, in either order of the parts.
+async fn sidecars_are_checked_before_the_cloud_is_kept(env: &Env) {
+    // Clouds over this many bytes are refused with 413 once read: a 422 for a bigger cloud
+    // sent after a bad sidecar shows the cloud was never read.
+    let mut s = env.start(1, |c| c.max_upload_bytes = 4_000).await;
+    let mut contract = Contract::load();
+    let bad_quaternion =
+        r#"{"scans": [{"index": 0, "position": [0, 0, 1], "quaternion": [2, 0, 0, 0]}]}"#;
+    let good_poses =
+        r#"{"scans": [{"index": 0, "position": [0, 0, 1], "quaternion": [1, 0, 0, 0]}]}"#;
+    let backwards = r#"{"samples": [
+        {"t": 1, "position": [0, 0, 1], "quaternion": [1, 0, 0, 0]},
+        {"t": 0.5, "position": [0, 0, 1], "quaternion": [1, 0, 0, 0]}]}"#;
+    let e57 = format!("ASTM-E57\0\0\0\0{}", "\0".repeat(200));
+    let small = xyz(20);
+    let big = xyz(2_000);
+    assert!(big.len() > 4_000 && small.len() < 4_000);
+
+    // What is sent, the parts in order, and what the refusal must name.
+    type Case<'a> = (&'a str, Vec<(&'a str, String)>, &'a str);
+    let cases: Vec<Case> = vec![
+        (
+            "cloud first, bad poses",
+            vec![("cloud", small.clone()), ("poses", bad_quaternion.into())],
+            "scans[0]",
+        ),
+        (
+            "bad poses first, a cloud over the limit",
+            vec![("poses", bad_quaternion.into()), ("cloud", big.clone())],
+            "scans[0]",
+        ),
+        (
+            "a trajectory out of time order",
+            vec![("trajectory", backwards.into()), ("cloud", small.clone())],
+            "samples[1]",
+        ),
+        (
+            "a sidecar that is not JSON",
+            vec![("cloud", small.clone()), ("poses", "scans: []".into())],
+            "not valid pose JSON",
+        ),
+        (
+            "an E57, then poses",
+            vec![("cloud", e57.clone()), ("poses", good_poses.into())],
+            "carries its own scan poses",
+        ),
+        (
+            "poses, then an E57",
+            vec![("poses", good_poses.into()), ("cloud", e57.clone())],
+            "carries its own scan poses",
+        ),
+    ];
+    for (what, parts, names) in cases {
+        let (status, _, body) = call(
+            &mut contract,
+            "POST",
+            "/v1/jobs",
+            s.post("/v1/jobs").multipart(form(&parts)),
+        )
+        .await;
+        let text = String::from_utf8_lossy(&body);
+        assert_eq!(status, 422, "{}: {what}: {text}", env.backend);
+        let e = json(&body);
+        assert_eq!(e["error"]["code"], "invalid_sidecar", "{what}: {e}");
+        let message = e["error"]["message"].as_str().unwrap();
+        assert!(message.contains(names), "{what}: {message}");
+        if what == "cloud first, bad poses" {
+            // The document's example is this very answer.
+            assert_eq!(
+                message,
+                "the `poses` part: scans[0] (index 0): `quaternion` has norm 2.000000, not 1 \
+                 (a rotation's quaternion [w, x, y, z] is unit)"
+            );
+        }
+        let left = env.blobs(&s).await;
+        assert!(left.is_empty(), "{what}: blobs left behind: {left:?}");
+    }
+    assert!(listed(&s, "").await.is_empty(), "no job was made");
+
+    // A good sidecar still makes a job; an E57 alone too; a re-plan of the E57 with poses not.
+    let (status, _, body) = call(
+        &mut contract,
+        "POST",
+        "/v1/jobs",
+        s.post("/v1/jobs")
+            .multipart(form(&[("poses", good_poses.into()), ("cloud", small)])),
+    )
+    .await;
+    assert_eq!(status, 202, "{}", String::from_utf8_lossy(&body));
+    let posed = json(&body);
+    assert_eq!(posed["upload"]["sidecar"], "poses");
+    let (status, _, body) = call(
+        &mut contract,
+        "POST",
+        "/v1/jobs",
+        s.post("/v1/jobs").multipart(form(&[("cloud", e57)])),
+    )
+    .await;
+    assert_eq!(status, 202, "{}", String::from_utf8_lossy(&body));
+    let e57_job = json(&body)["id"].as_str().unwrap().to_string();
+    // Both jobs finish first, so their results are not counted as the re-plan's blobs.
+    for id in [posed["id"].as_str().unwrap(), e57_job.as_str()] {
+        s.wait_done(id, Duration::from_secs(20)).await;
+    }
+    let before = env.blobs(&s).await.len();
+    assert!(before >= 2, "the two jobs' clouds are seen: {before}");
+    let path = format!("/v1/jobs/{e57_job}/replan");
+    let (status, _, body) = call(
+        &mut contract,
+        "POST",
+        &path,
+        s.post(&path)
+            .multipart(form(&[("poses", good_poses.into())])),
+    )
+    .await;
+    assert_eq!(status, 422, "{}", String::from_utf8_lossy(&body));
+    assert_eq!(json(&body)["error"]["code"], "invalid_sidecar");
+    assert_eq!(
+        env.blobs(&s).await.len(),
+        before,
+        "the refused re-plan kept nothing"
+    );
+    assert_eq!(listed(&s, "").await.len(), 2);
+    s.stop().await;
+}
+
+/// The objects of upload sessions the server still keeps.
+async fn session_blobs(env: &Env, s: &Server) -> Vec<String> {
+    env.blobs(s)
+        .await
+        .into_iter()
+        .filter(|k| k.contains("uploads/"))
+        .collect()
+}
+
+async fn offset(s: &Server, location: &str) -> (u16, Option<u64>) {
+    let res = s
+        .client
+        .head(s.url(location))
+        .header("Tus-Resumable", "1.0.0")
+        .send()
+        .await
+        .unwrap();
+    let offset = res
+        .headers()
+        .get("upload-offset")
+        .map(|v| v.to_str().unwrap().parse().unwrap());
+    (res.status().as_u16(), offset)
+}
+
+fn patch(s: &Server, location: &str, at: u64, body: reqwest::Body) -> reqwest::RequestBuilder {
+    s.client
+        .patch(s.url(location))
+        .header("Tus-Resumable", "1.0.0")
+        .header("Content-Type", "application/offset+octet-stream")
+        .header("Upload-Offset", at.to_string())
+        .body(body)
+}
+
+/// tus: open a session, send half and drop the connection, ask where to resume, send the
+/// rest, and make a job of it that plans; wrong offsets and early commits are refused; an
+/// abandoned session expires and the sweeper removes its bytes.
+async fn resumable_uploads_resume_after_a_drop_and_expire(env: &Env) {
+    let mut s = env.start(1, |c| c.upload_session_secs = 10).await;
+    let cloud = xyz(3_000).into_bytes();
+    let total = cloud.len() as u64;
+    let mut contract = Contract::load();
+    let (status, headers, body) = call(
+        &mut contract,
+        "POST",
+        "/v1/uploads",
+        s.post("/v1/uploads")
+            .header("Tus-Resumable", "1.0.0")
+            .header("Upload-Length", total.to_string()),
+    )
+    .await;
+    assert_eq!(status, 201, "{}", env.backend);
+    let location = headers["location"].to_str().unwrap().to_string();
+    assert_eq!(headers["upload-offset"], "0");
+    assert_eq!(json(&body)["length"], total);
+
+    // Half of a PATCH that declares the whole rest, then the connection drops.
+    let half = cloud.len() / 2;
+    {
+        use tokio::io::AsyncWriteExt;
+        let addr = s.url("").trim_start_matches("http://").to_string();
+        let mut tcp = tokio::net::TcpStream::connect(addr).await.unwrap();
+        let head = format!(
+            "PATCH {location} HTTP/1.1\r\nHost: asbuilt\r\nTus-Resumable: 1.0.0\r\n\
+             Content-Type: application/offset+octet-stream\r\nUpload-Offset: 0\r\n\
+             Content-Length: {total}\r\n\r\n"
+        );
+        tcp.write_all(head.as_bytes()).await.unwrap();
+        tcp.write_all(&cloud[..half]).await.unwrap();
+        tcp.flush().await.unwrap();
+        tokio::time::sleep(Duration::from_millis(200)).await;
+        // Dropped here: the server sees the body end early.
+    }
+    // The server finishes storing what arrived shortly after the drop.
+    let end = Instant::now() + Duration::from_secs(10);
+    let at = loop {
+        let (status, at) = offset(&s, &location).await;
+        assert_eq!(status, 200);
+        if at == Some(half as u64) || Instant::now() > end {
+            break at.unwrap();
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    };
+    assert_eq!(at, half as u64, "{}: resume where it stopped", env.backend);
+
+    // A PATCH at another offset, and a job of an incomplete upload, are conflicts.
+    let res = patch(&s, &location, 0, cloud[..10].to_vec().into())
+        .send()
+        .await
+        .unwrap();
+    expect_error(res, 409, "upload_conflict").await;
+    let path = format!("{location}/job");
+    let (status, _, body) = call(&mut contract, "POST", &path, s.post(&path)).await;
+    assert_eq!(status, 409);
+    assert_eq!(json(&body)["error"]["code"], "upload_conflict");
+
+    let res = patch(&s, &location, at, cloud[half..].to_vec().into())
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(res.status(), 204);
+    assert_eq!(res.headers()["upload-offset"], total.to_string().as_str());
+
+    let path = format!("{location}/job?tag=resumed&filename=room.xyz");
+    let (status, _, body) = call(&mut contract, "POST", &path, s.post(&path)).await;
+    assert_eq!(status, 202, "{}", env.backend);
+    let job = json(&body);
+    assert_eq!(job["upload"]["bytes"], total);
+    assert_eq!(job["upload"]["format"], "xyz");
+    assert_eq!(job["tags"], serde_json::json!(["resumed"]));
+    let id = job["id"].as_str().unwrap();
+    let done = s.wait_done(id, Duration::from_secs(20)).await;
+    assert_eq!(done["status"], "succeeded", "{done}");
+    assert_eq!(done["input"]["points"], 3_000, "the whole cloud, in order");
+    assert_eq!(offset(&s, &location).await.0, 404, "the session is used up");
+    assert!(session_blobs(env, &s).await.is_empty());
+
+    // An abandoned session: its bytes go when it expires.
+    let res = s
+        .post("/v1/uploads")
+        .header("Upload-Length", total.to_string())
+        .send()
+        .await
+        .unwrap();
+    let abandoned = res.headers()["location"].to_str().unwrap().to_string();
+    let res = patch(&s, &abandoned, 0, cloud[..100].to_vec().into())
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(res.status(), 204);
+    assert_eq!(session_blobs(env, &s).await.len(), 2, "record and one part");
+    let end = Instant::now() + Duration::from_secs(30);
+    while !session_blobs(env, &s).await.is_empty() {
+        assert!(Instant::now() < end, "the sweeper left the session");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    assert_eq!(offset(&s, &abandoned).await.0, 404);
     s.stop().await;
 }

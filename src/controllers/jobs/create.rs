@@ -7,6 +7,7 @@
 //!
 //! The cloud never sits whole in memory. On any refusal, whatever was stored is deleted.
 
+use asbuilt_plan::io::poses;
 use asbuilt_plan::params::ParamsError;
 use asbuilt_plan::Params;
 use axum::body::Body;
@@ -287,6 +288,15 @@ async fn store_cloud(
     stream: ByteStream<'_>,
 ) -> Result<(Stored, &'static str), ApiError> {
     let (format, stream) = sniff(stream).await?;
+    store_sniffed(state, id, format, stream).await
+}
+
+async fn store_sniffed(
+    state: &AppState,
+    id: JobId,
+    format: &'static str,
+    stream: ByteStream<'_>,
+) -> Result<(Stored, &'static str), ApiError> {
     let stored = state
         .blobs
         .put_stream(&keys::cloud(id), stream, state.config.max_upload_bytes)
@@ -315,6 +325,39 @@ async fn read_small(mut field: Field<'_>, name: &str, limit: u64) -> Result<Byte
         buf.extend_from_slice(&chunk);
     }
     Ok(buf.into())
+}
+
+/// Parses a sidecar as the pipeline will, so a bad one is refused now (naming the entry and
+/// field at fault), not by a failed job after the whole cloud is stored.
+pub fn check_sidecar(kind: SidecarKind, bytes: &[u8]) -> Result<(), ApiError> {
+    let name = kind.name();
+    let text = std::str::from_utf8(bytes).map_err(|_| {
+        ApiError::new(
+            Code::InvalidSidecar,
+            format!("the `{name}` part is not UTF-8 JSON text"),
+        )
+    })?;
+    let parsed = match kind {
+        SidecarKind::Poses => poses::parse_poses(text).map(drop),
+        SidecarKind::Trajectory => poses::parse_trajectory(text).map(drop),
+    };
+    parsed.map_err(|e| ApiError::new(Code::InvalidSidecar, format!("the `{name}` part: {e}")))
+}
+
+/// An E57 carries a pose per scan and takes no sidecar (`docs/contract.md` §2): sending one
+/// is a mistake the client hears about at once, not a job that plans with the wrong poses.
+pub fn refuse_e57_sidecar(format: &str, kind: SidecarKind) -> Result<(), ApiError> {
+    if format != "e57" {
+        return Ok(());
+    }
+    Err(ApiError::new(
+        Code::InvalidSidecar,
+        format!(
+            "an E57 file carries its own scan poses, so no sidecar is needed \
+             (docs/contract.md §2); send the E57 without the `{}` part",
+            kind.name()
+        ),
+    ))
 }
 
 /// Reads a multipart body: the cloud (only when `with_cloud`; a re-plan has its upload), a
@@ -348,7 +391,12 @@ pub async fn receive_multipart(
                 }
                 got.filename = field.file_name().map(clean_filename);
                 let stream = field.map_err(std::io::Error::other).boxed();
-                got.cloud = Some(store_cloud(state, id, stream).await?);
+                let (format, stream) = sniff(stream).await?;
+                // A sidecar that came first is checked against the format before a byte is kept.
+                if let Some(kind) = got.sidecar {
+                    refuse_e57_sidecar(format, kind)?;
+                }
+                got.cloud = Some(store_sniffed(state, id, format, stream).await?);
             }
             "poses" | "trajectory" => {
                 if got.sidecar.is_some() {
@@ -357,25 +405,19 @@ pub async fn receive_multipart(
                         "send one `poses` or `trajectory` part, not several",
                     ));
                 }
-                let bytes = read_small(field, &name, small).await?;
-                let value: serde_json::Value = serde_json::from_slice(&bytes).map_err(|e| {
-                    ApiError::new(
-                        Code::InvalidSidecar,
-                        format!("the `{name}` part is not JSON: {e}"),
-                    )
-                })?;
-                if !value.is_object() {
-                    return Err(ApiError::new(
-                        Code::InvalidSidecar,
-                        format!("the `{name}` part must be a JSON object"),
-                    ));
+                let kind: SidecarKind = name.parse().map_err(ApiError::internal)?;
+                // The cloud, when it came first, is already stored: the caller removes it.
+                if let Some((_, format)) = &got.cloud {
+                    refuse_e57_sidecar(format, kind)?;
                 }
+                let bytes = read_small(field, &name, small).await?;
+                check_sidecar(kind, &bytes)?;
                 let stored = state
                     .blobs
                     .put(&keys::sidecar(id), bytes)
                     .await
                     .map_err(blob_error)?;
-                got.sidecar = name.parse::<SidecarKind>().ok();
+                got.sidecar = Some(kind);
                 got.sidecar_sha256 = Some(stored.sha256);
             }
             "params" => {

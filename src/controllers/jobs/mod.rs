@@ -13,6 +13,7 @@ pub mod results;
 pub mod show;
 mod sniff;
 pub mod submit;
+pub mod uploads;
 
 use crate::app::AppState;
 use crate::errors::{ApiError, Code};

@@ -51,7 +51,11 @@ pub async fn replan(
     let id = JobId::new();
     let result = async {
         let received = if is_multipart(&request) {
-            receive_multipart(&state, id, request, false).await?
+            let received = receive_multipart(&state, id, request, false).await?;
+            if let Some(kind) = received.sidecar {
+                super::create::refuse_e57_sidecar(&source.upload.format, kind)?;
+            }
+            received
         } else {
             let limit = state.config.max_sidecar_bytes as usize;
             let body = axum::body::to_bytes(request.into_body(), limit)

@@ -93,7 +93,8 @@ async fn bad_bodies_and_parameters_get_stable_codes() {
         "invalid_sidecar",
     )
     .await;
-    let form = reqwest::multipart::Form::new().part("poses", reqwest::multipart::Part::text("{}"));
+    let form = reqwest::multipart::Form::new()
+        .part("poses", reqwest::multipart::Part::text(r#"{"scans": []}"#));
     expect_error(
         s.post("/v1/jobs").multipart(form).send().await.unwrap(),
         422,
