@@ -15,22 +15,20 @@ use asbuilt_plan::plan::{
     Door, DoorKind, FloorPlan, InputSummary, Polygon, Room, Spaces, StoryPlan, Wall, WallCentre,
     WallModel, Window,
 };
-use asbuilt_plan::progress::{Progress, Stage};
+use asbuilt_plan::progress::{Progress, Stage, STAGES};
 
 use crate::errors::JobCode;
 
 use super::pipeline::{check_points, JobInput, JobResults, Pipeline, PipelineFailure};
 
-/// The stages the fake walks through, with their share of the run.
-const STAGES: [Stage; 7] = [
-    Stage::Read,
-    Stage::Stories,
-    Stage::Samples,
-    Stage::Labeling,
-    Stage::Cleanup,
-    Stage::Fitting,
-    Stage::Write,
-];
+/// The stages the fake walks through: the pipeline's own table, less smoothing, which the
+/// fake's plan reports as turned off (so the page shows it skipped).
+fn stages() -> impl Iterator<Item = Stage> {
+    STAGES
+        .iter()
+        .map(|row| row.stage)
+        .filter(|s| *s != Stage::Smoothing)
+}
 
 /// See the module documentation.
 pub struct FakePipeline {
@@ -212,8 +210,9 @@ impl Pipeline for FakePipeline {
             .and_then(|rest| rest.split_whitespace().next())
             .and_then(|s| s.parse().ok());
         let mut timings = vec![];
-        for (i, stage) in STAGES.iter().enumerate() {
-            progress.report(*stage, i as f64 / STAGES.len() as f64);
+        let count = stages().count();
+        for (i, stage) in stages().enumerate() {
+            progress.report(stage, i as f64 / count as f64);
             let start = Instant::now();
             if let (Some(secs), Stage::Fitting) = (hang, stage) {
                 std::thread::sleep(Duration::from_secs_f64(secs.clamp(0.0, 3600.0)));
