@@ -34,7 +34,8 @@ pub struct BenchArgs {
     /// Formats to run the whole pipeline on.
     #[arg(long, value_delimiter = ',', default_value = "ply,laz")]
     pub formats: Vec<BenchFormat>,
-    /// Thread counts (RAYON_NUM_THREADS) to run each plan with; empty = rayon's default.
+    /// Thread counts (RAYON_NUM_THREADS) to run each plan and each read with; empty = rayon's
+    /// default.
     #[arg(long, value_delimiter = ',')]
     pub threads: Vec<usize>,
     /// Also run the streaming mode (`plan --max-memory SIZE`) on every size and format.
@@ -150,6 +151,8 @@ struct PlanRun {
 struct ReadRun {
     points: u64,
     format: BenchFormat,
+    /// RAYON_NUM_THREADS, or `None` for rayon's default.
+    threads: Option<usize>,
     file_bytes: u64,
     cat_ms: f64,
     info_ms: f64,
@@ -232,7 +235,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
             let file = dir.join(format.file_name());
             let file_bytes = file_len(&file)?;
             let cat_ms = time_cat(&file, args.repeat)?;
-            let info = best_of(args.repeat, || info_run(&exe, &file, format, &dir))?;
+            let info = best_of(args.repeat, || info_run(&exe, &file, format, &dir, None))?;
             for mode in &modes {
                 for &t in &threads {
                     let out = best_of(args.repeat, || {
@@ -280,25 +283,29 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
             let file = dir.join(format.file_name());
             let file_bytes = file_len(&file)?;
             let cat_ms = time_cat(&file, args.repeat)?;
-            let info = best_of(args.repeat, || info_run(&exe, &file, format, &dir))?;
-            eprintln!(
-                "bench: read {} points of {}: {:.0} ms",
-                read_size,
-                format.name(),
-                info.wall_ms
-            );
-            read_runs.push(ReadRun {
-                points: read_size,
-                format,
-                file_bytes,
-                cat_ms,
-                info_ms: info.wall_ms,
-                info_cpu_ms: info.cpu_ms,
-                mpts_per_second: read_size as f64 / 1e6 / (info.wall_ms / 1e3),
-                cat_mb_per_second: file_bytes as f64 / 1e6 / (cat_ms / 1e3),
-                peak_rss_bytes: info.peak_rss,
-                compact_bytes: read_size * 14,
-            });
+            for &t in &threads {
+                let info = best_of(args.repeat, || info_run(&exe, &file, format, &dir, t))?;
+                eprintln!(
+                    "bench: read {} points of {}, threads {}: {:.0} ms",
+                    read_size,
+                    format.name(),
+                    t.map_or("default".to_string(), |t| t.to_string()),
+                    info.wall_ms
+                );
+                read_runs.push(ReadRun {
+                    points: read_size,
+                    format,
+                    threads: t,
+                    file_bytes,
+                    cat_ms,
+                    info_ms: info.wall_ms,
+                    info_cpu_ms: info.cpu_ms,
+                    mpts_per_second: read_size as f64 / 1e6 / (info.wall_ms / 1e3),
+                    cat_mb_per_second: file_bytes as f64 / 1e6 / (cat_ms / 1e3),
+                    peak_rss_bytes: info.peak_rss,
+                    compact_bytes: read_size * 14,
+                });
+            }
         }
     }
 
@@ -479,10 +486,16 @@ fn child(exe: &Path, args: &[OsString], threads: Option<usize>) -> anyhow::Resul
     Ok((wall_ms, peak, cpu_ms as f64))
 }
 
-fn info_run(exe: &Path, file: &Path, format: BenchFormat, dir: &Path) -> anyhow::Result<ChildRun> {
+fn info_run(
+    exe: &Path,
+    file: &Path,
+    format: BenchFormat,
+    dir: &Path,
+    threads: Option<usize>,
+) -> anyhow::Result<ChildRun> {
     let mut args: Vec<OsString> = vec!["info".into(), file.into()];
     args.extend(format.read_args(dir));
-    let (wall_ms, peak_rss, cpu_ms) = child(exe, &args, None)?;
+    let (wall_ms, peak_rss, cpu_ms) = child(exe, &args, threads)?;
     Ok(ChildRun {
         wall_ms,
         cpu_ms,
@@ -722,20 +735,22 @@ fn markdown(r: &Report) -> String {
     if !r.read_runs.is_empty() {
         let _ = writeln!(
             s,
-            "| format | points | file MB | cat ms | cat MB/s | info ms | info CPU ms | read Mpts/s | peak MB | peak/compact |\n|---|---|---|---|---|---|---|---|---|---|"
+            "| format | points | threads | file MB | cat ms | cat MB/s | info ms | info CPU ms | read Mpts/s | read MB/s | peak MB | peak/compact |\n|---|---|---|---|---|---|---|---|---|---|---|---|"
         );
         for x in &r.read_runs {
             let _ = writeln!(
                 s,
-                "| {} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.1} | {:.0} | {:.2} |",
+                "| {} | {} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {:.1} | {:.0} | {:.0} | {:.2} |",
                 x.format.name(),
                 count(x.points),
+                x.threads.map_or("default".to_string(), |t| t.to_string()),
                 mb(x.file_bytes),
                 x.cat_ms,
                 x.cat_mb_per_second,
                 x.info_ms,
                 x.info_cpu_ms,
                 x.mpts_per_second,
+                mb(x.file_bytes) / (x.info_ms / 1e3),
                 mb(x.peak_rss_bytes),
                 x.peak_rss_bytes as f64 / x.compact_bytes as f64,
             );

@@ -6,7 +6,7 @@
 
 use std::io::{Read, Seek, SeekFrom};
 
-use las::{PointDataBuilder, Reader};
+use las::{LazParallelism, PointDataBuilder, Reader, ReaderOptions};
 
 mod chunks;
 
@@ -25,9 +25,10 @@ const MAX_LAZ_POINTS_PER_BYTE: u64 = 64;
 /// Scanner LAZ files take 3 to 10 bytes a point; reserve for no more than this many per byte.
 const LAZ_RESERVE_POINTS_PER_BYTE: u64 = 1;
 
-/// Reads LAS or LAZ from a seekable source of `len` bytes.
+/// Reads LAS or LAZ from a seekable source of `len` bytes; LAZ chunks are decoded in parallel
+/// when the file has a sound chunk table.
 pub fn read_las<R>(
-    mut source: R,
+    source: R,
     len: u64,
     name: &str,
     options: &ReadOptions,
@@ -35,10 +36,44 @@ pub fn read_las<R>(
 where
     R: Read + Seek + Send + Sync + 'static,
 {
+    read_las_with(source, len, name, options, true)
+}
+
+/// [`read_las`], with parallel LAZ decoding allowed or not.
+fn read_las_with<R>(
+    mut source: R,
+    len: u64,
+    name: &str,
+    options: &ReadOptions,
+    parallel: bool,
+) -> Result<PointCloud, ReadError>
+where
+    R: Read + Seek + Send + Sync + 'static,
+{
     let plan = check_header(&mut source, len, name)?;
+    if parallel && plan.laz_chunk.is_some() {
+        // The decoder's threads are the pool's: run the whole read there.
+        super::pool::install(|| decode_las(source, len, name, options, &plan, true))
+    } else {
+        decode_las(source, len, name, options, &plan, false)
+    }
+}
+
+fn decode_las<R>(
+    source: R,
+    len: u64,
+    name: &str,
+    options: &ReadOptions,
+    plan: &HeaderCheck,
+    parallel: bool,
+) -> Result<PointCloud, ReadError>
+where
+    R: Read + Seek + Send + Sync + 'static,
+{
     let fname = plan.format;
+    let batch = plan.batch(parallel);
     let err = |e: las::Error| ReadError::named(name, fname, e.to_string());
-    let mut reader = Reader::new(source).map_err(err)?;
+    let mut reader = open_reader(source, plan, parallel).map_err(err)?;
     let header = reader.header().clone();
     let count = header.number_of_points();
     // The first point chooses the local origin: header bounds may be stale or zero. LAS counts
@@ -55,13 +90,13 @@ where
     let mut outside = 0u64;
     loop {
         let at = || {
-            let end = (done + CHUNK).min(count).max(done + 1) - 1;
+            let end = (done + batch).min(count).max(done + 1) - 1;
             format!("points {done} to {end} of {count}")
         };
         // The LAZ decoder asserts on some damaged chunks; catching the panic here, rather than
         // in the reader thread, tells the user where the damage starts.
         let filled = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            reader.fill_points(CHUNK, &mut pd)
+            reader.fill_points(batch, &mut pd)
         }));
         let n = match filled {
             Ok(Ok(n)) => n,
@@ -136,6 +171,37 @@ where
 /// What the header check learned.
 struct HeaderCheck {
     format: &'static str,
+    /// For a LAZ file whose chunks can be decoded in parallel (a chunked compressor and a
+    /// sound chunk table), the points per chunk (a guess for variable-sized chunks).
+    laz_chunk: Option<u64>,
+}
+
+impl HeaderCheck {
+    /// Points to ask the decoder for at a time: with parallel LAZ, a few chunks per thread, so
+    /// every thread has whole chunks to decode; otherwise a cache-sized batch.
+    fn batch(&self, parallel: bool) -> u64 {
+        match self.laz_chunk {
+            // Capped: a damaged header's huge chunk size must not size the buffers.
+            Some(chunk) if parallel => chunk
+                .saturating_mul(4 * super::pool::threads() as u64)
+                .min(1 << 21),
+            _ => CHUNK,
+        }
+    }
+}
+
+/// The `las` crate's reader over `source`, decoding LAZ chunks in parallel when `parallel`
+/// and the file allows it.
+fn open_reader<R>(source: R, plan: &HeaderCheck, parallel: bool) -> las::Result<Reader>
+where
+    R: Read + Seek + Send + Sync + 'static,
+{
+    let laz = if parallel && plan.laz_chunk.is_some() {
+        LazParallelism::Yes
+    } else {
+        LazParallelism::No
+    };
+    Reader::with_options(source, ReaderOptions::default().with_laz_parallelism(laz))
 }
 
 /// The header's point count: the legacy 32-bit field, or the 64-bit one when that is zero.
@@ -172,6 +238,7 @@ fn check_header<R: Read + Seek>(
         ReadError::at(name, "las", why, "byte 0")
     })?;
     let compressed = raw.point_data_record_format & 0xC0 != 0;
+    let mut laz_chunk = None;
     let format = if compressed { "laz" } else { "las" };
     check_transforms(&raw, name, format)?;
     let points = point_count(&raw);
@@ -197,7 +264,16 @@ fn check_header<R: Read + Seek>(
         let laszip = laszip_items(source, &raw, name)?;
         // Variable-sized chunks (chunk size 0 or u32::MAX) take their point counts from the table.
         let variable = matches!(&laszip, Some((_, 0 | u32::MAX, _)));
-        check_chunk_table(source, start, len, points, variable, name)?;
+        let table = check_chunk_table(source, start, len, points, variable, name)?;
+        // Only the chunked compressors (1 is point-wise, 2 and 3 chunked) decode in parallel.
+        if let Some((2 | 3, size, _)) = &laszip {
+            if table {
+                laz_chunk = Some(match *size {
+                    0 | u32::MAX => 50_000,
+                    n => u64::from(n),
+                });
+            }
+        }
         match laszip {
             Some((_, _, items)) if items.is_empty() => {
                 return Err(ReadError::named(
@@ -257,7 +333,7 @@ fn check_header<R: Read + Seek>(
         }
     }
     source.seek(SeekFrom::Start(0)).map_err(io)?;
-    Ok(HeaderCheck { format })
+    Ok(HeaderCheck { format, laz_chunk })
 }
 
 /// Scale factors must be finite and non-zero and offsets finite, or every point is garbage.
@@ -290,7 +366,8 @@ fn check_transforms(
     Ok(())
 }
 
-/// LAZ keeps a chunk table whose entry count the decoder allocates from.
+/// LAZ keeps a chunk table whose entry count the decoder allocates from. Returns true when the
+/// table is whole and consistent with the file, so the chunks can be decoded in parallel.
 fn check_chunk_table<R: Read + Seek>(
     source: &mut R,
     start: u64,
@@ -298,7 +375,7 @@ fn check_chunk_table<R: Read + Seek>(
     points: u64,
     variable: bool,
     name: &str,
-) -> Result<(), ReadError> {
+) -> Result<bool, ReadError> {
     let io = |e: std::io::Error| ReadError::io(name, e);
     let read_u64_at = |s: &mut R, at: u64| -> Result<Option<i64>, ReadError> {
         if at.checked_add(8).is_none_or(|end| end > len) {
@@ -321,7 +398,7 @@ fn check_chunk_table<R: Read + Seek>(
         // Writers that could not seek back leave the offset in the last 8 bytes.
         offset = read_u64_at(source, len.saturating_sub(8))?.unwrap_or(-1);
         if offset <= start as i64 {
-            return Ok(());
+            return Ok(false);
         }
     }
     let table = offset as u64;
@@ -345,17 +422,23 @@ fn check_chunk_table<R: Read + Seek>(
             format!("byte {table}"),
         ));
     }
-    if variable {
-        // The decoder indexes the table by chunk without checking: it must cover every point.
-        source.seek(SeekFrom::Start(table)).map_err(io)?;
-        let entries = laz::laszip::ChunkTable::read(source, true).map_err(|e| {
-            ReadError::at(
+    // The parallel decoder reads the table too, and allocates from its byte and point counts.
+    source.seek(SeekFrom::Start(table)).map_err(io)?;
+    let entries = match laz::laszip::ChunkTable::read(source, variable) {
+        Ok(entries) => entries,
+        // The sequential decoder of fixed-size chunks never reads the table.
+        Err(_) if !variable => return Ok(false),
+        Err(e) => {
+            return Err(ReadError::at(
                 name,
                 "laz",
                 format!("the chunk table cannot be read ({e})"),
                 format!("byte {table}"),
-            )
-        })?;
+            ))
+        }
+    };
+    if variable {
+        // The decoder indexes the table by chunk without checking: it must cover every point.
         let covered = entries
             .as_ref()
             .iter()
@@ -371,7 +454,15 @@ fn check_chunk_table<R: Read + Seek>(
             ));
         }
     }
-    Ok(())
+    let bytes = entries
+        .as_ref()
+        .iter()
+        .fold(0u64, |n, e| n.saturating_add(e.byte_count));
+    let sane = entries
+        .as_ref()
+        .iter()
+        .all(|e| e.point_count <= points.max(1) && e.byte_count <= len);
+    Ok(sane && bytes <= table.saturating_sub(start))
 }
 
 /// The LASzip compressor of point formats 6 to 10.
@@ -580,4 +671,51 @@ fn describe(header: &las::Header, crs_from: Option<&str>) -> String {
         d += &format!(", CRS from {from}");
     }
     d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Cursor;
+
+    #[test]
+    fn parallel_laz_reads_exactly_the_serial_points() {
+        // Several compressed chunks, the last one short.
+        let n = 123_457;
+        let mut c = PointCloud {
+            origin: [500_000.0, 5_400_000.0, 0.0],
+            scan_ids: vec![4, 9, 2],
+            ..Default::default()
+        };
+        for i in 0..n {
+            let f = i as f32;
+            c.xyz
+                .push([f * 0.001, (f * 0.37).sin() * 20.0, (i % 300) as f32 * 0.01]);
+            c.scan.push(((i / 7_000) % 3) as u16);
+            c.time.push(i as f64 * 1e-3);
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.laz");
+        crate::io::export::write_las(&path, &c, true).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let len = bytes.len() as u64;
+        let plan = check_header(&mut Cursor::new(bytes.clone()), len, "t.laz").unwrap();
+        let chunk = plan.laz_chunk.expect("the file has a chunk table");
+        assert!(chunk < n as u64, "one chunk only: nothing to split");
+        let read = |parallel: bool| {
+            let source = Cursor::new(bytes.clone());
+            read_las_with(source, len, "t.laz", &ReadOptions::default(), parallel).unwrap()
+        };
+        let (serial, parallel) = (read(false), read(true));
+        assert_eq!(serial.len(), n);
+        let bits = |c: &PointCloud| -> Vec<[u32; 3]> {
+            c.xyz.iter().map(|p| p.map(f32::to_bits)).collect()
+        };
+        assert!(bits(&serial) == bits(&parallel), "points differ");
+        assert_eq!(serial.scan, parallel.scan);
+        assert_eq!(serial.scan_ids, parallel.scan_ids);
+        assert_eq!(serial.time, parallel.time);
+        assert_eq!(serial.origin, parallel.origin);
+        assert_eq!(serial.source, parallel.source);
+    }
 }

@@ -11,6 +11,7 @@ pub mod geojson;
 pub(crate) mod las;
 pub mod outputs;
 pub mod ply;
+mod pool;
 pub mod poses;
 pub(crate) mod sidecar;
 pub(crate) mod spill;

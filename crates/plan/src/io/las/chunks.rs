@@ -6,7 +6,7 @@ use std::io::{Read, Seek};
 
 use las::{PointData, PointDataBuilder, Reader};
 
-use super::{check_header, crs_of, describe, BoundsGuard, CHUNK};
+use super::{check_header, crs_of, describe, open_reader, BoundsGuard, CHUNK};
 use crate::cloud::PointCloud;
 use crate::io::assemble::CloudBuilder;
 use crate::io::chunks::{hand_over, PointChunk, PointChunks};
@@ -38,8 +38,9 @@ impl LasChunks {
     {
         let plan = check_header(&mut source, len, name)?;
         let format = plan.format;
-        let reader =
-            Reader::new(source).map_err(|e| ReadError::named(name, format, e.to_string()))?;
+        // Batches are decoded one at a time, a few ahead of the caller: sequentially.
+        let reader = open_reader(source, &plan, false)
+            .map_err(|e| ReadError::named(name, format, e.to_string()))?;
         let header = reader.header().clone();
         let pd = PointDataBuilder::new().for_header(&header).build();
         Ok(LasChunks {

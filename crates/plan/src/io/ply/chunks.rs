@@ -7,7 +7,9 @@ use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
 use super::header::{describe, read_header, vertices, Element, Header, Kind, Layout, Scalar};
-use super::{fast_layout, invalid, io_error, truncated_vertices, Body, Encoding, Sink, FORMAT};
+use super::{
+    fast_layout, invalid, io_error, truncated_vertices, Body, Encoding, Sink, Split, FORMAT,
+};
 use crate::cloud::{PointCloud, SourceInfo};
 use crate::io::chunks::{hand_over, PointChunk, PointChunks, CHUNK_POINTS};
 use crate::io::ReadError;
@@ -47,6 +49,7 @@ impl PlyChunks {
                 offset: header.len,
                 line: header.lines,
                 text: String::new(),
+                split: Split::SERIAL,
             };
             for element in &header.elements[..vertex_pos] {
                 body.skip_element(element)?;
@@ -106,9 +109,10 @@ impl PlyChunks {
             offset: self.offset,
             line: self.line,
             text: String::new(),
+            split: Split::SERIAL,
         };
         body.fill(&mut self.buf, "the vertex data")
-            .map_err(|e| truncated_vertices(e, self.done, self.vertex.count))?;
+            .map_err(|e| truncated_vertices(e, self.done, self.vertex.count, n))?;
         self.offset = body.offset;
         if let Some(scan) = fast_layout([x, y, z], scan, time, big) {
             let done = self.done;
@@ -152,6 +156,7 @@ impl PlyChunks {
             offset: self.offset,
             line: self.line,
             text: String::new(),
+            split: Split::SERIAL,
         };
         let result = body.read_vertices(&one, self.layout, &mut self.sink);
         self.offset = body.offset;

@@ -15,6 +15,8 @@ use std::fs::File;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
+use rayon::prelude::*;
+
 use super::ReadError;
 use crate::cloud::{local_origin, to_local, PointCloud, SourceInfo};
 use header::{describe, read_header, vertices, Element, Header, Kind, Layout, Scalar};
@@ -25,6 +27,9 @@ pub use write::{write_ply, write_ply_to, WriteError};
 
 /// Vertices decoded per chunk on the binary path.
 const CHUNK_VERTICES: usize = 1 << 16;
+/// Binary vertices are read in blocks of this many chunks per thread, each block decoded in
+/// as many parts as threads.
+const CHUNKS_PER_THREAD: usize = 4;
 /// Never reserve room for more points than this up front. Counts below it are reserved exactly
 /// (after the file's size has confirmed them), so the arrays never grow by doubling.
 const MAX_RESERVE: usize = 1 << 30;
@@ -53,6 +58,35 @@ pub(crate) fn declared_vertices(mut reader: impl BufRead) -> Option<u64> {
 /// Reads PLY from any source of `len` bytes (a file, an upload in memory); `name` is used in
 /// errors. The source is read once, front to back, through a buffer.
 pub fn read_ply_from<R: Read>(source: R, len: u64, name: &str) -> Result<PointCloud, ReadError> {
+    let parts = super::pool::threads();
+    let split = Split {
+        block: CHUNK_VERTICES * CHUNKS_PER_THREAD * parts,
+        parts,
+    };
+    read_ply_split(source, len, name, split)
+}
+
+/// How binary vertices are read: `block` records at a time, each block decoded in `parts`.
+#[derive(Debug, Clone, Copy)]
+struct Split {
+    block: usize,
+    parts: usize,
+}
+
+impl Split {
+    /// A chunk at a time, on the calling thread.
+    const SERIAL: Split = Split {
+        block: CHUNK_VERTICES,
+        parts: 1,
+    };
+}
+
+fn read_ply_split<R: Read>(
+    source: R,
+    len: u64,
+    name: &str,
+    split: Split,
+) -> Result<PointCloud, ReadError> {
     let path = Path::new(name);
     let file_len = len;
     let mut reader = BufReader::with_capacity(1 << 20, source);
@@ -67,6 +101,7 @@ pub fn read_ply_from<R: Read>(source: R, len: u64, name: &str) -> Result<PointCl
         offset: header.len,
         line: header.lines,
         text: String::new(),
+        split,
     };
     for element in &header.elements[..vertex_pos] {
         body.skip_element(element)?;
@@ -188,6 +223,25 @@ impl Sink {
         Ok(())
     }
 
+    /// Appends a part decoded on its own (same origin, its own scan slots) as if its records
+    /// had been pushed here. False, with the points not added, when its scans do not fit.
+    fn absorb(&mut self, part: &Sink) -> bool {
+        let mut slots = Vec::with_capacity(part.cloud.scan_ids.len());
+        for &id in &part.cloud.scan_ids {
+            match self.slot_of_id(id) {
+                Ok(slot) => slots.push(slot),
+                Err(_) => return false,
+            }
+        }
+        let c = &mut self.cloud;
+        c.xyz.extend_from_slice(&part.cloud.xyz);
+        c.scan
+            .extend(part.cloud.scan.iter().map(|&s| slots[usize::from(s)]));
+        c.time.extend_from_slice(&part.cloud.time);
+        self.skipped += part.skipped;
+        true
+    }
+
     fn finish(mut self, details: String) -> PointCloud {
         self.cloud.origin = self.origin.unwrap_or_default();
         // Only worth a reallocation when many points were skipped.
@@ -216,6 +270,7 @@ struct Body<'a, R: BufRead> {
     offset: u64,
     line: u64,
     text: String,
+    split: Split,
 }
 
 impl<R: BufRead> Body<'_, R> {
@@ -360,7 +415,8 @@ impl<R: BufRead> Body<'_, R> {
         }
     }
 
-    /// The fast path: fixed-size binary records decoded a chunk at a time.
+    /// The fast path: fixed-size binary records read a block at a time, each block decoded
+    /// in parallel parts.
     fn read_fixed_vertices(
         &mut self,
         vertex: &Element,
@@ -368,51 +424,24 @@ impl<R: BufRead> Body<'_, R> {
         layout: Layout,
         sink: &mut Sink,
     ) -> Result<(), ReadError> {
-        let big = self.big();
-        let mut offsets = Vec::with_capacity(vertex.properties.len());
-        let mut at = 0;
-        let mut types = Vec::with_capacity(vertex.properties.len());
-        for p in &vertex.properties {
-            offsets.push(at);
-            if let Kind::Scalar(s) = p.kind {
-                types.push(s);
-                at += s.size();
-            }
-        }
-        let field = |k: usize| (offsets[k], types[k]);
-        let [x, y, z] = layout.xyz.map(field);
-        let scan = layout.scan.map(field);
-        let time = layout.time.map(field);
-        let mut buf = vec![0u8; size * CHUNK_VERTICES.min(vertex.count as usize).max(1)];
+        let records = Records::new(vertex, size, layout, self.big());
+        let block = self.split.block.max(1);
+        let mut buf = vec![0u8; size * block.min(vertex.count as usize).max(1)];
         let mut done = 0u64;
         while done < vertex.count {
-            let n = ((vertex.count - done) as usize).min(CHUNK_VERTICES);
+            let n = ((vertex.count - done) as usize).min(block);
             let start = self.offset;
             self.fill(&mut buf[..n * size], "the vertex data")
-                .map_err(|e| truncated_vertices(e, done, vertex.count))?;
-            if let Some(scan) = fast_layout([x, y, z], scan, time, big) {
-                sink.push_f32_records(&buf[..n * size], size, [x.0, y.0, z.0], scan)
-                    .map_err(|(i, why)| {
-                        invalid(
-                            self.path,
-                            format!("vertex {}: {why}", done + i as u64),
-                            Some(format!("byte offset {}", start + (i * size) as u64)),
-                        )
-                    })?;
-                done += n as u64;
-                continue;
-            }
-            for (i, rec) in buf[..n * size].chunks_exact(size).enumerate() {
-                let get = |(o, s): (usize, Scalar)| s.decode(&rec[o..], big);
-                let p = [get(x), get(y), get(z)];
-                sink.push(p, scan.map(get), time.map(get)).map_err(|why| {
+                .map_err(|e| truncated_vertices(e, done, vertex.count, block))?;
+            records
+                .decode_parts(sink, &buf[..n * size], self.split.parts)
+                .map_err(|(i, why)| {
                     invalid(
                         self.path,
                         format!("vertex {}: {why}", done + i as u64),
                         Some(format!("byte offset {}", start + (i * size) as u64)),
                     )
                 })?;
-            }
             done += n as u64;
         }
         Ok(())
@@ -507,6 +536,105 @@ impl<R: BufRead> Body<'_, R> {
     }
 }
 
+/// A decode's outcome: on error, the record's index and why.
+type Decoded = Result<(), (usize, String)>;
+
+/// How to decode fixed-size binary vertex records: the record size, and the offset and type
+/// of x, y, z and the optional scan index and time.
+struct Records {
+    size: usize,
+    xyz: [(usize, Scalar); 3],
+    scan: Option<(usize, Scalar)>,
+    time: Option<(usize, Scalar)>,
+    big: bool,
+    layout: Layout,
+}
+
+impl Records {
+    fn new(vertex: &Element, size: usize, layout: Layout, big: bool) -> Records {
+        let mut fields = Vec::with_capacity(vertex.properties.len());
+        let mut at = 0;
+        for p in &vertex.properties {
+            if let Kind::Scalar(s) = p.kind {
+                fields.push((at, s));
+                at += s.size();
+            }
+        }
+        Records {
+            size,
+            xyz: layout.xyz.map(|k| fields[k]),
+            scan: layout.scan.map(|k| fields[k]),
+            time: layout.time.map(|k| fields[k]),
+            big,
+            layout,
+        }
+    }
+
+    /// Decodes whole records into `sink`; on error, the record's index in `buf` and why.
+    fn decode(&self, sink: &mut Sink, buf: &[u8]) -> Result<(), (usize, String)> {
+        let [x, y, z] = self.xyz;
+        if let Some(scan) = fast_layout(self.xyz, self.scan, self.time, self.big) {
+            return sink.push_f32_records(buf, self.size, [x.0, y.0, z.0], scan);
+        }
+        for (i, rec) in buf.chunks_exact(self.size).enumerate() {
+            let get = |(o, s): (usize, Scalar)| s.decode(&rec[o..], self.big);
+            sink.push(
+                [get(x), get(y), get(z)],
+                self.scan.map(get),
+                self.time.map(get),
+            )
+            .map_err(|why| (i, why))?;
+        }
+        Ok(())
+    }
+
+    /// [`Self::decode`] in `parts` pieces on rayon's threads, with exactly its result: each
+    /// piece collects its points and scan slots on its own, in the shared local frame, and
+    /// the pieces are then appended in order. A piece that fails, or whose scans would not
+    /// fit, is decoded again here, so an error is the one a one-piece read gives.
+    fn decode_parts(
+        &self,
+        sink: &mut Sink,
+        buf: &[u8],
+        parts: usize,
+    ) -> Result<(), (usize, String)> {
+        let size = self.size;
+        let records = buf.len() / size;
+        // The first kept point fixes the local frame, which every piece needs.
+        let mut first = 0;
+        while sink.origin.is_none() && first < records {
+            self.decode(sink, &buf[first * size..(first + 1) * size])
+                .map_err(|(_, why)| (first, why))?;
+            first += 1;
+        }
+        let rest = &buf[first * size..records * size];
+        let left = records - first;
+        if parts <= 1 || left < 2 {
+            return self.decode(sink, rest).map_err(|(i, why)| (first + i, why));
+        }
+        let per = left.div_ceil(parts);
+        let origin = sink.origin;
+        let pieces: Vec<(Sink, Decoded)> = rest
+            .par_chunks(per * size)
+            .map(|piece| {
+                let mut part = Sink::new((piece.len() / size) as u64, self.layout);
+                part.origin = origin;
+                let result = self.decode(&mut part, piece);
+                (part, result)
+            })
+            .collect();
+        for (k, (part, result)) in pieces.iter().enumerate() {
+            if result.is_ok() && sink.absorb(part) {
+                continue;
+            }
+            let at = first + k * per;
+            let piece = &rest[k * per * size..((k + 1) * per).min(left) * size];
+            self.decode(sink, piece).map_err(|(i, why)| (at + i, why))?;
+        }
+        Ok(())
+    }
+}
+
 /// For the layout [`Sink::push_f32_records`] decodes (little-endian `float` x, y, z, an
 /// optional `uint` scan index, no time): `Some` with the scan index's offset, if any.
 #[allow(clippy::type_complexity)]
@@ -530,7 +658,8 @@ fn parse_number(token: &str) -> Option<f64> {
     token.parse::<f64>().ok()
 }
 
-fn truncated_vertices(e: ReadError, done: u64, count: u64) -> ReadError {
+/// A truncation error while reading a `block` of vertices, said in vertices.
+fn truncated_vertices(e: ReadError, done: u64, count: u64, block: usize) -> ReadError {
     match e {
         ReadError::Invalid {
             path,
@@ -542,7 +671,7 @@ fn truncated_vertices(e: ReadError, done: u64, count: u64) -> ReadError {
             format,
             why: format!(
                 "the file is truncated: it ends inside the vertex data, after fewer than {} of the {count} vertices the header declares",
-                done + CHUNK_VERTICES.min((count - done) as usize) as u64
+                done + block.min((count - done) as usize) as u64
             ),
             at,
         },
@@ -563,5 +692,107 @@ pub(super) fn io_error(path: &Path, source: std::io::Error) -> ReadError {
     ReadError::Io {
         path: path.display().to_string(),
         source,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A cloud of `n` points over several scans, with non-finite points at the start and
+    /// scattered, so the first piece and later ones both skip points.
+    fn cloud(n: usize, with_time: bool) -> PointCloud {
+        let mut c = PointCloud {
+            scan_ids: vec![40, 7, 12, 99, 3],
+            ..Default::default()
+        };
+        for i in 0..n {
+            let f = i as f32;
+            let bad = i < 3 || i % 977 == 0;
+            let x = if bad { f32::NAN } else { f * 0.01 };
+            c.xyz
+                .push([x, (f * 0.37).sin() * 20.0, (i % 300) as f32 * 0.01]);
+            // Scans appear in runs, some coming back, so slots merge across pieces.
+            c.scan.push(((i / 1_300) % 5) as u16);
+            if with_time {
+                c.time.push(i as f64 * 1e-3);
+            }
+        }
+        c
+    }
+
+    fn read(bytes: &[u8], split: Split) -> Result<PointCloud, ReadError> {
+        read_ply_split(
+            std::io::Cursor::new(bytes.to_vec()),
+            bytes.len() as u64,
+            "t.ply",
+            split,
+        )
+    }
+
+    fn same(a: &PointCloud, b: &PointCloud) {
+        assert_eq!(a.len(), b.len());
+        let bits = |c: &PointCloud| -> Vec<[u32; 3]> {
+            c.xyz.iter().map(|p| p.map(f32::to_bits)).collect()
+        };
+        assert!(bits(a) == bits(b), "points differ");
+        assert_eq!(a.scan, b.scan);
+        assert_eq!(a.scan_ids, b.scan_ids);
+        assert_eq!(a.time, b.time);
+        assert_eq!(a.origin, b.origin);
+        assert_eq!(a.source, b.source);
+    }
+
+    #[test]
+    fn parallel_pieces_read_exactly_the_serial_points() {
+        for with_time in [false, true] {
+            let c = cloud(20_011, with_time);
+            let mut bytes = Vec::new();
+            write_ply_to(&mut bytes, &c, Encoding::BinaryLittleEndian).unwrap();
+            let serial = read(&bytes, Split::SERIAL).unwrap();
+            assert_eq!(serial.len(), 20_011 - 3 - 20);
+            assert_eq!(serial.scan_ids, vec![40, 7, 12, 99, 3]);
+            // Blocks and pieces that split the file at odd records.
+            for (block, parts) in [(997, 3), (4_099, 7), (20_011, 2), (1 << 20, 5), (1, 2)] {
+                let parallel = read(&bytes, Split { block, parts }).unwrap();
+                same(&serial, &parallel);
+            }
+        }
+    }
+
+    #[test]
+    fn parallel_pieces_fail_as_the_serial_read_does() {
+        // Every vertex a scan of its own: more scans than slots, found while merging pieces.
+        let n = 70_000u32;
+        let mut bytes = format!(
+            "ply\nformat binary_little_endian 1.0\nelement vertex {n}\nproperty float x\n\
+             property float y\nproperty float z\nproperty uint scan_index\nend_header\n"
+        )
+        .into_bytes();
+        for i in 0..n {
+            for v in [i as f32, 1.0, 2.0] {
+                bytes.extend_from_slice(&v.to_le_bytes());
+            }
+            bytes.extend_from_slice(&i.to_le_bytes());
+        }
+        let serial = read(&bytes, Split::SERIAL).unwrap_err().to_string();
+        assert!(serial.contains("distinct scan indices"), "{serial}");
+        for (block, parts) in [(9_999, 3), (1 << 20, 2)] {
+            let parallel = read(&bytes, Split { block, parts })
+                .unwrap_err()
+                .to_string();
+            assert_eq!(parallel, serial);
+        }
+        // A truncated body is still an error, not a panic.
+        let cut = &bytes[..bytes.len() - 7];
+        let err = read(
+            cut,
+            Split {
+                block: 9_999,
+                parts: 3,
+            },
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("truncated"), "{err}");
     }
 }
