@@ -114,6 +114,9 @@ impl PlanError {
 
 /// The `timings_ms` key of the Delaunay triangulation, the first part of labeling (§3.3).
 pub const TRIANGULATE: &str = "triangulate";
+/// The `timings_ms` key of tracing the labeled rooms' boundary (§3.4), timed apart from the
+/// cleanup it ends so a slow trace shows as such.
+pub const BOUNDARY: &str = "boundary";
 /// The `timings_ms` key of the last step: every polygon made OGC-valid on the output grid.
 pub const VALIDITY: &str = "validity";
 /// The `timings_ms` key of estimating scanner positions the input does not give.
@@ -446,7 +449,10 @@ fn plan_story(
         clean_labels(&mut labeled, &params.cleanup)
     });
     let forced = forced_area(&labeled);
-    let boundary = timings.time(Stage::Cleanup, || trace_boundary(&labeled))?;
+    let start = Instant::now();
+    let boundary = trace_boundary(&labeled);
+    timings.add(BOUNDARY, start.elapsed().as_secs_f64() * 1e3);
+    let boundary = boundary?;
     step(Stage::Fitting)?;
     let fitted = timings.time(Stage::Fitting, || {
         fit_walls(&labeled, &boundary, &params.fitting, cancel)
