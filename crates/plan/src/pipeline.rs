@@ -1,6 +1,5 @@
 //! The one place that lists the stages in order: cloud in, floor plan out.
 
-#![warn(missing_docs)]
 
 use std::cell::RefCell;
 use std::time::Instant;

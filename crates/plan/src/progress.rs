@@ -1,7 +1,6 @@
 //! How the pipeline reports progress and learns it should stop. Callers (the CLI's progress bar,
 //! the service's worker) implement [`Progress`]; the pipeline knows nothing of them.
 
-#![warn(missing_docs)]
 
 use crate::cancel::Cancel;
 

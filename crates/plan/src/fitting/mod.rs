@@ -2,21 +2,21 @@
 //! rebuilt from the models with sharp corners.
 //!
 //! The steps: [`ransac`] finds the models (scoring each candidate only on the samples its
-//! inlier band crosses, through [`index`]), [`grow`] resets small components and grows models
-//! along the boundary, [`rebuild`] replaces each ring's runs with edges on their models, and
-//! [`simple`] finds where the result is not valid. Where rebuilt edges cross (a corner placed
+//! inlier band crosses, through `index`), `grow` resets small components and grows models
+//! along the boundary, `rebuild` replaces each ring's runs with edges on their models, and
+//! `simple` finds where the result is not valid. Where rebuilt edges cross (a corner placed
 //! past a neighbour, the two faces of a thin wall fitted leaning into each other), the crossing
 //! becomes a corner and the region the walls enclose counter-clockwise is kept
 //! ([`crate::validity::resolve`]); the repair is noted. The traced staircase is never put back.
 
-pub mod circle;
-pub mod grow;
-pub mod index;
-pub mod line;
-pub mod model;
+pub(crate) mod circle;
+pub(crate) mod grow;
+pub(crate) mod index;
+pub(crate) mod line;
+pub(crate) mod model;
 pub mod ransac;
-pub mod rebuild;
-pub mod simple;
+pub(crate) mod rebuild;
+pub(crate) mod simple;
 
 use std::collections::HashMap;
 

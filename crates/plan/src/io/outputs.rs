@@ -5,10 +5,10 @@
 
 use crate::plan::FloorPlan;
 
-pub mod ifc;
+pub(crate) mod ifc;
 #[cfg(test)]
 pub(crate) mod python;
-pub mod rooms_csv;
+pub(crate) mod rooms_csv;
 
 /// One result format.
 #[derive(Debug, Clone, Copy)]

@@ -9,7 +9,7 @@
 //!   Lanczos on one sparse Cholesky factor) and the harmonic solution from the same factor.
 
 mod constraints;
-pub mod mesh;
+pub(crate) mod mesh;
 mod spectral;
 mod walk;
 mod weights;
