@@ -1,6 +1,5 @@
 //! The one place that lists the stages in order: cloud in, floor plan out.
 
-
 use std::cell::RefCell;
 use std::time::Instant;
 

@@ -1,7 +1,6 @@
 //! How the pipeline reports progress and learns it should stop. Callers (the CLI's progress bar,
 //! the service's worker) implement [`Progress`]; the pipeline knows nothing of them.
 
-
 use crate::cancel::Cancel;
 
 /// The stages, in pipeline order.

@@ -113,7 +113,9 @@ impl Default for FittingParams {
 /// The fitted story: watertight polygons (local coordinates) and the walls on their boundary.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct FittedStory {
+    /// The story's polygons, watertight, local coordinates.
     pub polygons: Vec<Polygon>,
+    /// The walls on the polygons' boundary.
     pub walls: Vec<Wall>,
     /// Repairs worth telling the user about (crossings of rebuilt walls resolved).
     pub notes: Vec<String>,
@@ -122,8 +124,15 @@ pub struct FittedStory {
 /// Why fitting failed.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum FittingError {
+    /// A parameter is outside its range.
     #[error("invalid fitting parameter `{name}`: {why}")]
-    BadParam { name: &'static str, why: String },
+    BadParam {
+        /// The parameter's name.
+        name: &'static str,
+        /// What is wrong.
+        why: String,
+    },
+    /// The run was stopped from outside.
     #[error(transparent)]
     Cancelled(#[from] Cancelled),
 }
@@ -131,6 +140,7 @@ pub enum FittingError {
 /// The boundary vertices RANSAC works on, with the boundary edges between them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BoundarySamples {
+    /// The boundary vertices' positions, local coordinates.
     pub pos: Vec<P2>,
     /// Unit normal, when the sample has one.
     pub normal: Vec<Option<P2>>,

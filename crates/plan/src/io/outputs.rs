@@ -17,6 +17,7 @@ pub struct Output {
     pub name: &'static str,
     /// The file name results are stored and served under.
     pub file: &'static str,
+    /// The media type results are served with.
     pub media_type: &'static str,
     /// What the file is, for the CLI's help ("Also write ...").
     pub about: &'static str,

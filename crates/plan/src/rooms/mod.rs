@@ -147,8 +147,14 @@ impl RoomsParams {
 /// this; it never fails a job.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum RoomsError {
+    /// A parameter is outside its range.
     #[error("parameter `{name}`: {why}")]
-    BadParam { name: &'static str, why: String },
+    BadParam {
+        /// The parameter's name.
+        name: &'static str,
+        /// What is wrong.
+        why: String,
+    },
     /// The free floor cut at the doors could not be made valid.
     #[error("the rooms could not be made valid: {0}")]
     Invalid(String),
@@ -157,13 +163,16 @@ pub enum RoomsError {
 /// A scanner position: its index as the user names it, and where it stood (local frame).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Scanner {
+    /// The scan's index as the user names it.
     pub index: usize,
+    /// Where it stood, local frame.
     pub position: [f64; 3],
 }
 
 /// What [`find_rooms`] found on one story.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RoomsOutcome {
+    /// The story's rooms, doors, windows and centre-line walls.
     pub spaces: Spaces,
     /// Things worth telling the user.
     pub notes: Vec<String>,
@@ -173,6 +182,7 @@ pub struct RoomsOutcome {
 /// given; only those between the story's floor and ceiling are read). Empty when the cloud is
 /// not held (streaming), and then no gap is known to have a lintel.
 pub struct StoryPoints<'a> {
+    /// Local x, y, z of the points.
     pub xyz: &'a [[f32; 3]],
 }
 

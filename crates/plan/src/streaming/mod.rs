@@ -15,7 +15,6 @@
 //!
 //! The plan is the in-memory one ([`crate::pipeline::plan`] on the whole cloud).
 
-
 use std::path::PathBuf;
 use std::time::Instant;
 

@@ -7,7 +7,6 @@
 //! through a JSON tree; trajectories (`trajectory.rs`) can be long and are deserialised straight
 //! into typed samples.
 
-
 use std::path::Path;
 
 use super::ReadError;
