@@ -1,7 +1,7 @@
 //! Stage 4 (§3.3): Delaunay triangulation of the wall samples and 2D Eigencrust inside/outside
 //! labeling. See `shared/design/eigencrust-2d.md` for the derivation.
 //!
-//! - [`mesh`]: spade Delaunay of the samples plus four box corners.
+//! - `mesh`: spade Delaunay of the samples plus four box corners.
 //! - `weights`: poles and the signed edge weights (eq. (1) for adjacent poles).
 //! - `walk`: exact straight-line walks (point location, lines of sight, the mobile path).
 //! - `constraints`: forced inside/outside triangles.

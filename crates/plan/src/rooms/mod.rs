@@ -3,17 +3,17 @@
 //!
 //! The story's valid polygons are the input: interior walls show in them as slits and holes
 //! whose two faces lie a wall's thickness apart. The steps, one module each:
-//! 1. [`faces`]: the polygons' boundary edges, each with the free floor on its left.
-//! 2. [`pairing`]: two antiparallel faces a plausible thickness apart, with solid between them,
+//! 1. `faces`: the polygons' boundary edges, each with the free floor on its left.
+//! 2. `pairing`: two antiparallel faces a plausible thickness apart, with solid between them,
 //!    are one wall: a centre line and a thickness. Faces left alone on the outer ring are
 //!    exterior walls of an assumed thickness.
-//! 3. [`gaps`]: from each end of a paired wall, along its centre line, the free floor up to the
+//! 3. `gaps`: from each end of a paired wall, along its centre line, the free floor up to the
 //!    next face is a gap (a door's width apart); the points over it tell a door (wall above,
 //!    a lintel) from an opening (nothing between the door height and the ceiling).
-//! 4. [`segment`]: the gaps cut the free floor; what falls apart are the rooms. A door that
+//! 4. `segment`: the gaps cut the free floor; what falls apart are the rooms. A door that
 //!    separates nothing (free floor goes around it, as between a column and a wall) is no door
 //!    and its cut is undone; an opening stays only when both sides are rooms of their own.
-//! 5. [`windows`]: gaps in the points along outer walls with wall below and above them.
+//! 5. `windows`: gaps in the points along outer walls with wall below and above them.
 
 pub(crate) mod faces;
 pub(crate) mod gaps;

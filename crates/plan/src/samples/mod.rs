@@ -1,10 +1,10 @@
 //! Stage 2 (§3.1): wall samples on a d_s grid, with PCA normals.
 //!
-//! The story's points are counting-sorted by grid cell ([`grid`]). A cell's neighbourhood is
+//! The story's points are counting-sorted by grid cell (`grid`). A cell's neighbourhood is
 //! every point within d_s, horizontally, of its centre, so it is gathered from the 3 × 3 block
 //! of cells around it. Per-cell height summaries rule out most cells (open floor, ceiling)
-//! before any neighbourhood is gathered; the rest run the tests of [`cell`] in the paper's
-//! order. With scanner poses, [`views`] orients the normals and drops far samples.
+//! before any neighbourhood is gathered; the rest run the tests of `cell` in the paper's
+//! order. With scanner poses, `views` orients the normals and drops far samples.
 
 mod bounds;
 mod cell;

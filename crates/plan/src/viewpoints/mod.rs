@@ -4,10 +4,10 @@
 //! neither happens and the plan rests on geometry alone.
 //!
 //! - Static scans with scan ids but no poses: each scan's blind cone under the tripod gives
-//!   its scanner position ([`cone`]).
+//!   its scanner position (`cone`).
 //! - A mobile scan with times but no trajectory: the same cone, fitted to the points of short
-//!   time windows, gives the path ([`path`]).
-//! - Plain x, y, z: [`open_space`] places pseudo-viewpoints in the open space each story's wall
+//!   time windows, gives the path (`path`).
+//! - Plain x, y, z: `open_space` places pseudo-viewpoints in the open space each story's wall
 //!   samples enclose, after sampling, where floor or ceiling points were scanned.
 //!
 //! Estimated viewpoints are used exactly as given ones; [`ViewpointsReport`] says which are
@@ -36,7 +36,7 @@ pub struct ViewpointsParams {
     /// Points per time window of a mobile scan (of the evenly thinned cloud).
     pub window_points: usize,
     /// Plain x, y, z (no poses, scan ids or times): place pseudo-viewpoints in the open space
-    /// the wall samples enclose ([`open_space`]). `false` plans such clouds on geometry alone.
+    /// the wall samples enclose (`open_space`). `false` plans such clouds on geometry alone.
     pub open_space: bool,
     /// Pseudo-viewpoints stand at least this far from every wall sample, metres.
     pub open_space_clearance: f64,
