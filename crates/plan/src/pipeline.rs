@@ -535,4 +535,27 @@ mod tests {
         let e = PlanError::Boundary(BoundaryError::NothingInside);
         assert_eq!(e.code(), "boundary_failed");
     }
+
+    #[test]
+    fn boundary_tracing_has_its_own_time_between_cleanup_and_fit() {
+        use crate::progress::NoProgress;
+        use crate::simulate::{simulate, BuildingKind, ScanOptions};
+        let options = ScanOptions {
+            points: 40_000,
+            seed: 1,
+            ..Default::default()
+        };
+        let sim = simulate(BuildingKind::SquareRoom, &options).unwrap();
+        let plan = plan(&sim.cloud, &Params::default(), &mut NoProgress).unwrap();
+        let keys: Vec<&str> = plan.timings_ms.iter().map(|(k, _)| k.as_str()).collect();
+        let at = keys
+            .iter()
+            .position(|k| *k == BOUNDARY)
+            .expect("a boundary time");
+        assert_eq!(
+            keys[at - 1..=at + 1],
+            ["cleanup", BOUNDARY, "fit"],
+            "{keys:?}"
+        );
+    }
 }
