@@ -27,7 +27,7 @@ pub struct Ring {
 /// One edge-connected inside region: an exterior ring and its holes.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct BoundaryPolygon {
-    /// The outer ring, counter-clockwise.
+    /// The outer ring.
     pub exterior: Ring,
     /// The rings of the holes inside it.
     pub holes: Vec<Ring>,

@@ -108,7 +108,7 @@ pub struct WallSample {
 /// A story's wall samples, with the scanner positions that saw them.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct WallSamples {
-    /// The samples, one per wall cell.
+    /// The story's wall samples.
     pub samples: Vec<WallSample>,
     /// Scanner positions (local x, y) that saw this story: static poses, or trajectory positions.
     pub viewpoints: Vec<P2>,
