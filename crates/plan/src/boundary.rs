@@ -18,6 +18,7 @@ use crate::labeling::{LabeledMesh, NONE};
 /// A closed ring of mesh vertex indices (the first vertex is not repeated).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Ring {
+    /// The ring's vertices in order.
     pub vertices: Vec<u32>,
     /// Shoelace area: positive for exteriors (CCW), negative for holes (CW).
     pub signed_area: f64,
@@ -26,21 +27,26 @@ pub struct Ring {
 /// One edge-connected inside region: an exterior ring and its holes.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct BoundaryPolygon {
+    /// The outer ring.
     pub exterior: Ring,
+    /// The rings of the holes inside it.
     pub holes: Vec<Ring>,
 }
 
 /// All boundary polygons of a story.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct Boundary {
+    /// The polygons, one per edge-connected inside region.
     pub polygons: Vec<BoundaryPolygon>,
 }
 
 /// Why the boundary could not be traced.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum BoundaryError {
+    /// No triangle is labeled inside.
     #[error("no inside triangles: the story has no enclosed floor area")]
     NothingInside,
+    /// A traced ring does not close; the text says where.
     #[error("boundary is not watertight: {0}")]
     NotWatertight(String),
 }

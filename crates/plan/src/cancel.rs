@@ -1,7 +1,7 @@
 //! Stopping a run from outside: a flag the caller raises, a deadline, or both.
 //!
 //! The caller makes a [`Cancel`], hands a clone to the run (through [`crate::progress::Progress`]
-//! for [`crate::plan`], as an argument for a stage called alone) and raises it from any thread.
+//! for [`crate::plan()`], as an argument for a stage called alone) and raises it from any thread.
 //! Every loop whose length depends on a parameter, or that runs over all the points, checks it
 //! often enough that a run stops well within a second of the flag or the deadline; the stage
 //! then returns its error's `Cancelled` variant, which [`crate::PlanError`] reports as

@@ -70,8 +70,11 @@ pub struct ScanPose {
 /// One sample of a mobile scanner's path, in local coordinates.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct TrajectorySample {
+    /// Time of the sample, seconds, on the same clock as the points' times.
     pub t: f64,
+    /// Scanner origin, local frame.
     pub position: [f64; 3],
+    /// Rotation scanner → cloud frame, a unit quaternion.
     pub quaternion: [f64; 4],
 }
 

@@ -3,18 +3,22 @@
 /// A 2D point or vector.
 pub type P2 = [f64; 2];
 
+/// `a - b`.
 pub fn sub(a: P2, b: P2) -> P2 {
     [a[0] - b[0], a[1] - b[1]]
 }
 
+/// `a + b`.
 pub fn add(a: P2, b: P2) -> P2 {
     [a[0] + b[0], a[1] + b[1]]
 }
 
+/// `a` scaled by `s`.
 pub fn scale(a: P2, s: f64) -> P2 {
     [a[0] * s, a[1] * s]
 }
 
+/// The dot product.
 pub fn dot(a: P2, b: P2) -> f64 {
     a[0] * b[0] + a[1] * b[1]
 }
@@ -24,10 +28,12 @@ pub fn cross(a: P2, b: P2) -> f64 {
     a[0] * b[1] - a[1] * b[0]
 }
 
+/// The Euclidean length.
 pub fn norm(a: P2) -> f64 {
     a[0].hypot(a[1])
 }
 
+/// The Euclidean distance between two points.
 pub fn dist(a: P2, b: P2) -> f64 {
     norm(sub(a, b))
 }

@@ -23,6 +23,8 @@
 //! - [`io`] reads clouds and pose sidecars and writes GeoJSON, SVG and DXF.
 //! - [`simulate`] builds and scans synthetic buildings with exact ground truth; [`evaluate`] scores plans.
 
+#![warn(missing_docs)]
+
 pub mod boundary;
 pub mod cancel;
 pub mod cleanup;

@@ -15,11 +15,17 @@ use crate::viewpoints::ViewpointsParams;
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Params {
+    /// Stage 1, the stories (§3.1).
     pub stories: StoriesParams,
+    /// Stage 2, the wall samples (§3.1).
     pub samples: SamplesParams,
+    /// Stage 3, smoothing the samples (§3.2).
     pub smoothing: SmoothingParams,
+    /// Stage 4, labeling (§3.3).
     pub labeling: LabelingParams,
+    /// Stage 5, cleanup (§3.4).
     pub cleanup: CleanupParams,
+    /// Stage 6, fitting the walls (§3.5).
     pub fitting: FittingParams,
     /// Scanner positions when the input gives none (beyond the paper).
     pub viewpoints: ViewpointsParams,
@@ -38,13 +44,16 @@ pub struct Params {
 pub struct ParamRange {
     /// The field's name within its stage's parameters.
     pub name: &'static str,
+    /// The smallest accepted value.
     pub min: f64,
+    /// The largest accepted value.
     pub max: f64,
     /// For messages: `m`, `m²`, `rad`, or empty for counts and fractions.
     pub unit: &'static str,
 }
 
 impl ParamRange {
+    /// A range for `name`, from `min` to `max` inclusive, in `unit`.
     pub const fn new(name: &'static str, min: f64, max: f64, unit: &'static str) -> ParamRange {
         ParamRange {
             name,
@@ -106,12 +115,21 @@ pub fn ranges() -> Vec<(&'static str, ParamRange)> {
 /// A parameter that could not be set. The message names the parameter.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum ParamsError {
+    /// An override is not `section.name=value`.
     #[error("parameter override `{0}` is not of the form section.name=value")]
     Syntax(String),
+    /// No parameter has that name.
     #[error("unknown parameter `{0}`")]
     Unknown(String),
+    /// The value is not accepted; `why` says why.
     #[error("invalid value for parameter `{name}`: {why}")]
-    Invalid { name: String, why: String },
+    Invalid {
+        /// The parameter, `section.name`.
+        name: String,
+        /// Why it is refused.
+        why: String,
+    },
+    /// The parameter file cannot be read or parsed.
     #[error("parameter file: {0}")]
     File(String),
 }

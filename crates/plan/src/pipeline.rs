@@ -1,7 +1,5 @@
 //! The one place that lists the stages in order: cloud in, floor plan out.
 
-#![warn(missing_docs)]
-
 use std::cell::RefCell;
 use std::time::Instant;
 
@@ -114,6 +112,9 @@ impl PlanError {
 
 /// The `timings_ms` key of the Delaunay triangulation, the first part of labeling (§3.3).
 pub const TRIANGULATE: &str = "triangulate";
+/// The `timings_ms` key of tracing the labeled rooms' boundary (§3.4), timed apart from the
+/// cleanup it ends so a slow trace shows as such.
+pub const BOUNDARY: &str = "boundary";
 /// The `timings_ms` key of the last step: every polygon made OGC-valid on the output grid.
 pub const VALIDITY: &str = "validity";
 /// The `timings_ms` key of estimating scanner positions the input does not give.
@@ -446,7 +447,10 @@ fn plan_story(
         clean_labels(&mut labeled, &params.cleanup)
     });
     let forced = forced_area(&labeled);
-    let boundary = timings.time(Stage::Cleanup, || trace_boundary(&labeled))?;
+    let start = Instant::now();
+    let boundary = trace_boundary(&labeled);
+    timings.add(BOUNDARY, start.elapsed().as_secs_f64() * 1e3);
+    let boundary = boundary?;
     step(Stage::Fitting)?;
     let fitted = timings.time(Stage::Fitting, || {
         fit_walls(&labeled, &boundary, &params.fitting, cancel)
@@ -530,5 +534,28 @@ mod tests {
         assert_eq!(shared_code(&[]), "no_plan");
         let e = PlanError::Boundary(BoundaryError::NothingInside);
         assert_eq!(e.code(), "boundary_failed");
+    }
+
+    #[test]
+    fn boundary_tracing_has_its_own_time_between_cleanup_and_fit() {
+        use crate::progress::NoProgress;
+        use crate::simulate::{simulate, BuildingKind, ScanOptions};
+        let options = ScanOptions {
+            points: 40_000,
+            seed: 1,
+            ..Default::default()
+        };
+        let sim = simulate(BuildingKind::SquareRoom, &options).unwrap();
+        let plan = plan(&sim.cloud, &Params::default(), &mut NoProgress).unwrap();
+        let keys: Vec<&str> = plan.timings_ms.iter().map(|(k, _)| k.as_str()).collect();
+        let at = keys
+            .iter()
+            .position(|k| *k == BOUNDARY)
+            .expect("a boundary time");
+        assert_eq!(
+            keys[at - 1..=at + 1],
+            ["cleanup", BOUNDARY, "fit"],
+            "{keys:?}"
+        );
     }
 }

@@ -8,7 +8,9 @@ use crate::geom::P2;
 /// holes CW. Writers close them.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct Polygon {
+    /// The outer ring, local coordinates.
     pub exterior: Vec<P2>,
+    /// The rings of the holes.
     pub holes: Vec<Vec<P2>>,
 }
 
@@ -16,13 +18,21 @@ pub struct Polygon {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 #[serde(tag = "model", rename_all = "lowercase")]
 pub enum WallModel {
+    /// A straight wall.
     Line,
-    Arc { center: P2, radius: f64 },
+    /// A circular arc wall, with its centre (local coordinates) and radius in metres.
+    Arc {
+        /// The centre, local coordinates.
+        center: P2,
+        /// The radius, metres.
+        radius: f64,
+    },
 }
 
 /// One fitted wall piece on a story's boundary.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Wall {
+    /// Its model: a line or an arc.
     pub model: WallModel,
     /// The piece as a polyline on the boundary; arcs are densified (1 cm chord error).
     pub points: Vec<P2>,
@@ -43,11 +53,15 @@ impl Wall {
 /// One story's plan.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct StoryPlan {
+    /// The story's index, from the lowest up.
     pub level: usize,
     /// Local-frame heights (add `FloorPlan::origin[2]` for world heights).
     pub floor_z: f64,
+    /// The ceiling's local height.
     pub ceiling_z: f64,
+    /// The story's open floor as OGC-valid polygons, local coordinates.
     pub polygons: Vec<Polygon>,
+    /// The fitted walls on the polygons' boundary.
     pub walls: Vec<Wall>,
     /// Wall sample positions (local), used by `wall_samples` output and the SVG.
     pub samples: Vec<P2>,
@@ -59,9 +73,11 @@ pub struct StoryPlan {
 /// local frame, like the rest of the story.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct Spaces {
+    /// The rooms the floor divides into.
     pub rooms: Vec<Room>,
     /// Doors and lintel-less openings between rooms.
     pub doors: Vec<Door>,
+    /// Windows in the story's outer walls.
     pub windows: Vec<Window>,
     /// Walls as centre lines with a thickness.
     pub walls: Vec<WallCentre>,
@@ -81,6 +97,7 @@ pub struct Room {
     pub perimeter: f64,
     /// Local heights of the room's floor and ceiling.
     pub floor_z: f64,
+    /// The ceiling's local height.
     pub ceiling_z: f64,
     /// Indices of the scanners (viewpoints) standing inside the room.
     pub scanners: Vec<usize>,
@@ -103,9 +120,11 @@ pub enum DoorKind {
 pub struct Door {
     /// `L{level}-D{n}`.
     pub id: String,
+    /// Door (with a lintel) or opening.
     pub kind: DoorKind,
     /// The segment's ends, on the jambs.
     pub a: P2,
+    /// The other end.
     pub b: P2,
     /// Clear width, m.
     pub width: f64,
@@ -122,11 +141,15 @@ pub struct Door {
 pub struct Window {
     /// `L{level}-W{n}`.
     pub id: String,
+    /// One end, on the wall's face.
     pub a: P2,
+    /// The other end.
     pub b: P2,
+    /// The window's width along the wall, metres.
     pub width: f64,
     /// Local heights of the sill and the head.
     pub sill_z: f64,
+    /// The head's local height.
     pub head_z: f64,
     /// The room it lights.
     pub room: Option<String>,
@@ -137,7 +160,9 @@ pub struct Window {
 pub struct WallCentre {
     /// `L{level}-C{n}` (centre line).
     pub id: String,
+    /// One end of the centre line.
     pub a: P2,
+    /// The other end.
     pub b: P2,
     /// m. For an exterior wall (`exterior`), only the inner face was seen and this is the
     /// assumed thickness (`rooms.exterior_thickness`).
@@ -167,8 +192,11 @@ impl StoryPlan {
 /// What was read, as reported in `floorplan.input`.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct InputSummary {
+    /// Points read.
     pub points: u64,
+    /// The file's format (`e57`, `las`, `ply`, ...).
     pub format: String,
+    /// Scans in the input.
     pub scans: usize,
     /// Where the scanner stood: given or estimated, per scan, and how much of the plan rests
     /// on it.
@@ -180,12 +208,15 @@ pub struct InputSummary {
 pub struct FloorPlan {
     /// World coordinates of the local frame; writers add it back.
     pub origin: [f64; 3],
+    /// The input's coordinate reference system (WKT or EPSG code), when it states one.
     pub crs: Option<String>,
+    /// What was read.
     pub input: InputSummary,
     /// Every parameter the run used, defaults and derived values included.
     pub parameters: serde_json::Value,
     /// Stage name → milliseconds, in pipeline order.
     pub timings_ms: Vec<(String, u64)>,
+    /// The stories, from the lowest up.
     pub stories: Vec<StoryPlan>,
     /// Things worth telling the user (adapted thresholds, skipped stories).
     pub notes: Vec<String>,

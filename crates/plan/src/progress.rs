@@ -1,8 +1,6 @@
 //! How the pipeline reports progress and learns it should stop. Callers (the CLI's progress bar,
 //! the service's worker) implement [`Progress`]; the pipeline knows nothing of them.
 
-#![warn(missing_docs)]
-
 use crate::cancel::Cancel;
 
 /// The stages, in pipeline order.
@@ -44,8 +42,9 @@ pub struct StageRow {
     pub parts: &'static [&'static str],
 }
 
-/// Every stage in pipeline order. Boundary tracing runs (and is timed) within `cleanup`, and
-/// its failure is `boundary_failed`. The rooms stage cannot fail a story or a job.
+/// Every stage in pipeline order. Boundary tracing runs within `cleanup`'s share of progress,
+/// and its failure is `boundary_failed`; its time is its own key, `boundary`, just ahead of
+/// `fit`. The rooms stage cannot fail a story or a job.
 pub const STAGES: [StageRow; 9] = [
     row(Stage::Read, "read", 0.0, None, &[]),
     row(Stage::Stories, "stories", 0.0, Some("no_stories"), &[]),
@@ -65,7 +64,13 @@ pub const STAGES: [StageRow; 9] = [
         &[crate::pipeline::TRIANGULATE],
     ),
     row(Stage::Cleanup, "cleanup", 0.1, Some("boundary_failed"), &[]),
-    row(Stage::Fitting, "fit", 0.1, Some("fitting_failed"), &[]),
+    row(
+        Stage::Fitting,
+        "fit",
+        0.1,
+        Some("fitting_failed"),
+        &[crate::pipeline::BOUNDARY],
+    ),
     // A failure here keeps the story's plan (empty spaces and a note): no job code.
     row(Stage::Rooms, "rooms", 0.05, None, &[]),
     row(Stage::Write, "write", 0.0, Some("output_failed"), &[]),
@@ -163,5 +168,6 @@ mod tests {
         assert!((Stage::Write.start() - 1.0).abs() < 1e-12);
         let keys: Vec<&str> = timing_keys().collect();
         assert_eq!(keys[4..6], ["triangulate", "label"]);
+        assert_eq!(keys[6..9], ["cleanup", "boundary", "fit"]);
     }
 }

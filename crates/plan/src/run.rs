@@ -2,8 +2,6 @@
 //! The CLI (in memory and streamed) and the service's worker call [`plan_scan`] and nothing
 //! else, so the point limit, the sidecar's size cap and scale, and the units check hold for all.
 
-#![warn(missing_docs)]
-
 use std::path::Path;
 use std::time::Instant;
 

@@ -54,8 +54,15 @@ impl Default for SmoothingParams {
 /// Why smoothing failed.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum SmoothingError {
+    /// A parameter is outside its range.
     #[error("invalid smoothing parameter `{name}`: {why}")]
-    BadParam { name: &'static str, why: String },
+    BadParam {
+        /// The parameter's name.
+        name: &'static str,
+        /// What is wrong.
+        why: String,
+    },
+    /// The run was stopped from outside.
     #[error(transparent)]
     Cancelled(#[from] Cancelled),
 }

@@ -54,10 +54,13 @@ impl Default for StoriesParams {
 pub struct Story {
     /// 0 is the lowest story.
     pub level: usize,
+    /// The floor's local height.
     pub floor_z: f64,
+    /// The ceiling's local height.
     pub ceiling_z: f64,
     /// Points with `z_min <= z < z_max` belong to this story (partition levels, §3.1).
     pub z_min: f64,
+    /// Upper partition level (exclusive).
     pub z_max: f64,
     /// The lowest ceiling at least the minimum wall height above the floor.
     pub wall_top_z: f64,
@@ -134,14 +137,29 @@ const VIEWPOINT_BELOW_FLOOR: f64 = 0.25;
 /// Why no stories could be found.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum StoriesError {
+    /// The cloud holds no points.
     #[error("the cloud is empty")]
     Empty,
+    /// A parameter is outside its range.
     #[error("invalid stories parameter `{name}`: {why}")]
-    BadParam { name: &'static str, why: String },
+    BadParam {
+        /// The parameter's name.
+        name: &'static str,
+        /// What is wrong.
+        why: String,
+    },
+    /// Some point heights are not finite.
     #[error("{0} point heights are not finite")]
     NonFinite(usize),
+    /// The heights span more bins than the histogram allows.
     #[error("the heights span {range:.1} m, {bins} bins of the histogram; are there outliers?")]
-    TooTall { range: f64, bins: usize },
+    TooTall {
+        /// The heights' span, metres.
+        range: f64,
+        /// The histogram bins it would take.
+        bins: usize,
+    },
+    /// No floor or ceiling peak was found.
     #[error("no floor or ceiling found: {0}")]
     NotFound(String),
 }

@@ -100,6 +100,7 @@ struct GridPolygon {
 /// What [`make_valid`] did to a story.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Validated {
+    /// The story's polygons, OGC-valid on the output grid.
     pub polygons: Vec<Polygon>,
     /// Fallbacks worth telling the user about.
     pub notes: Vec<String>,

@@ -51,7 +51,9 @@ impl Default for EvaluateParams {
 /// How one truth arc came back.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ArcScore {
+    /// The truth arc's centre.
     pub center: P2,
+    /// The truth arc's radius, metres.
     pub radius: f64,
     /// The closest plan arc's radius, `None` when the plan has no arc there.
     pub plan_radius: Option<f64>,
@@ -62,18 +64,25 @@ pub struct ArcScore {
 /// The scores of one truth story.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StoryScore {
+    /// The truth story's level.
     pub level: usize,
     /// The matched plan story's level, `None` when the plan has no story at this height.
     pub plan_level: Option<usize>,
+    /// Floor height error against the truth, metres.
     pub floor_error: f64,
+    /// Ceiling height error against the truth, metres.
     pub ceiling_error: f64,
     /// Intersection over union of the open floor areas.
     pub iou: f64,
+    /// The truth's open floor area, m².
     pub truth_area: f64,
+    /// The plan's open floor area, m².
     pub plan_area: f64,
     /// Distance from the plan's boundary to the truth's walls: mean and 95th percentile, metres.
     pub boundary_mean: f64,
+    /// 95th percentile of that distance, metres.
     pub boundary_p95: f64,
+    /// The largest such distance, metres.
     pub boundary_max: f64,
     /// Fraction of truth wall length with plan boundary within the tolerance.
     pub completeness: f64,
@@ -98,38 +107,45 @@ impl StoryScore {
 /// A whole plan's scores: one per truth story, and what the plan has beyond the truth.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Evaluation {
+    /// One score per truth story, in level order.
     pub stories: Vec<StoryScore>,
     /// Plan stories that match no truth story.
     pub extra_stories: usize,
 }
 
 impl Evaluation {
+    /// The smallest IoU of any story.
     pub fn min_iou(&self) -> f64 {
         self.stories.iter().map(|s| s.iou).fold(1.0, f64::min)
     }
+    /// The largest 95th-percentile boundary distance of any story.
     pub fn max_boundary_p95(&self) -> f64 {
         self.stories
             .iter()
             .map(|s| s.boundary_p95)
             .fold(0.0, f64::max)
     }
+    /// The smallest completeness of any story.
     pub fn min_completeness(&self) -> f64 {
         self.stories
             .iter()
             .map(|s| s.completeness)
             .fold(1.0, f64::min)
     }
+    /// The largest floor or ceiling height error of any story.
     pub fn max_height_error(&self) -> f64 {
         self.stories
             .iter()
             .map(|s| s.floor_error.max(s.ceiling_error))
             .fold(0.0, f64::max)
     }
+    /// True when every truth story has a plan story and none has a watertightness problem.
     pub fn all_watertight(&self) -> bool {
         self.stories
             .iter()
             .all(|s| s.plan_level.is_some() && s.watertight_problem.is_none())
     }
+    /// The largest arc radius error of any story, infinite when an arc was not found.
     pub fn worst_arc_error(&self) -> f64 {
         self.stories
             .iter()

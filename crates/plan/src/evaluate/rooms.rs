@@ -18,10 +18,13 @@ pub const DOOR_WIDTH_TOLERANCE: f64 = 0.05;
 /// How one truth room came back.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct RoomMatch {
+    /// The truth room's area, m².
     pub truth_area: f64,
     /// The matched plan room's id and area.
     pub plan_id: Option<String>,
+    /// The matched plan room's area, m².
     pub plan_area: Option<f64>,
+    /// IoU of the truth room and its match (0 when unmatched).
     pub iou: f64,
     /// The bound: within 1 %, or 0.2 m² for rooms under 20 m².
     pub within: bool,
@@ -30,32 +33,44 @@ pub struct RoomMatch {
 /// One story's rooms, doors and walls.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct RoomsScore {
+    /// Rooms in the truth.
     pub truth_rooms: usize,
+    /// Rooms in the plan.
     pub plan_rooms: usize,
+    /// One match per truth room.
     pub rooms: Vec<RoomMatch>,
+    /// Doors and openings in the truth.
     pub truth_doors: usize,
     /// Plan doors and openings.
     pub plan_doors: usize,
+    /// Truth doors a plan door matched.
     pub doors_matched: usize,
     /// Of the matched doors: the largest centre and width errors, m.
     pub door_centre_max: f64,
+    /// The largest door width error, metres.
     pub door_width_max: f64,
     /// Interior centre-line walls with truth faces on both sides, and their thickness errors.
     pub walls_measured: usize,
+    /// The mean wall thickness error, metres.
     pub thickness_mean: f64,
+    /// The largest wall thickness error, metres.
     pub thickness_max: f64,
 }
 
 impl RoomsScore {
+    /// Truth rooms a plan room matched.
     pub fn matched(&self) -> usize {
         self.rooms.iter().filter(|r| r.plan_id.is_some()).count()
     }
+    /// Truth rooms whose match is within tolerance.
     pub fn within(&self) -> usize {
         self.rooms.iter().filter(|r| r.within).count()
     }
+    /// Share of truth doors matched.
     pub fn door_recall(&self) -> f64 {
         ratio(self.doors_matched, self.truth_doors)
     }
+    /// Share of plan doors that match a truth door.
     pub fn door_precision(&self) -> f64 {
         ratio(self.doors_matched, self.plan_doors)
     }

@@ -2,21 +2,21 @@
 //! rebuilt from the models with sharp corners.
 //!
 //! The steps: [`ransac`] finds the models (scoring each candidate only on the samples its
-//! inlier band crosses, through [`index`]), [`grow`] resets small components and grows models
-//! along the boundary, [`rebuild`] replaces each ring's runs with edges on their models, and
-//! [`simple`] finds where the result is not valid. Where rebuilt edges cross (a corner placed
+//! inlier band crosses, through `index`), `grow` resets small components and grows models
+//! along the boundary, `rebuild` replaces each ring's runs with edges on their models, and
+//! `simple` finds where the result is not valid. Where rebuilt edges cross (a corner placed
 //! past a neighbour, the two faces of a thin wall fitted leaning into each other), the crossing
 //! becomes a corner and the region the walls enclose counter-clockwise is kept
 //! ([`crate::validity::resolve`]); the repair is noted. The traced staircase is never put back.
 
-pub mod circle;
-pub mod grow;
-pub mod index;
-pub mod line;
-pub mod model;
+pub(crate) mod circle;
+pub(crate) mod grow;
+pub(crate) mod index;
+pub(crate) mod line;
+pub(crate) mod model;
 pub mod ransac;
-pub mod rebuild;
-pub mod simple;
+pub(crate) mod rebuild;
+pub(crate) mod simple;
 
 use std::collections::HashMap;
 
@@ -113,7 +113,9 @@ impl Default for FittingParams {
 /// The fitted story: watertight polygons (local coordinates) and the walls on their boundary.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct FittedStory {
+    /// The story's polygons, watertight, local coordinates.
     pub polygons: Vec<Polygon>,
+    /// The walls on the polygons' boundary.
     pub walls: Vec<Wall>,
     /// Repairs worth telling the user about (crossings of rebuilt walls resolved).
     pub notes: Vec<String>,
@@ -122,8 +124,15 @@ pub struct FittedStory {
 /// Why fitting failed.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum FittingError {
+    /// A parameter is outside its range.
     #[error("invalid fitting parameter `{name}`: {why}")]
-    BadParam { name: &'static str, why: String },
+    BadParam {
+        /// The parameter's name.
+        name: &'static str,
+        /// What is wrong.
+        why: String,
+    },
+    /// The run was stopped from outside.
     #[error(transparent)]
     Cancelled(#[from] Cancelled),
 }
@@ -131,6 +140,7 @@ pub enum FittingError {
 /// The boundary vertices RANSAC works on, with the boundary edges between them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BoundarySamples {
+    /// The boundary vertices' positions, local coordinates.
     pub pos: Vec<P2>,
     /// Unit normal, when the sample has one.
     pub normal: Vec<Option<P2>>,

@@ -25,7 +25,9 @@ use crate::fitting::{BoundarySamples, FittingParams};
 
 /// The models found and, per sample, the index of the model it belongs to.
 pub struct Consensus {
+    /// The models found.
     pub models: Vec<Model>,
+    /// Per sample, the index of its model in `models`, if any.
     pub assigned: Vec<Option<usize>>,
     /// Inlier count of each model when it was found.
     pub support: Vec<usize>,

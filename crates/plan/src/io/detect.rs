@@ -7,11 +7,17 @@ use std::str::FromStr;
 /// The point-cloud formats asbuilt reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Format {
+    /// ASTM E57.
     E57,
+    /// LAS.
     Las,
+    /// LAZ (compressed LAS).
     Laz,
+    /// PLY, ASCII or binary.
     Ply,
+    /// Plain x y z text.
     Xyz,
+    /// Leica PTS text.
     Pts,
 }
 

@@ -10,13 +10,22 @@ use crate::cloud::{PointCloud, ScanPose, Viewpoints};
 /// Why a cloud could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum ExportError {
+    /// Creating or writing the file failed.
     #[error("{path}: {source}")]
     Io {
+        /// The file.
         path: String,
+        /// The underlying error.
         source: std::io::Error,
     },
+    /// The plan cannot be put in the format; `why` says what.
     #[error("{path}: {why}")]
-    Format { path: String, why: String },
+    Format {
+        /// The file.
+        path: String,
+        /// What cannot be written.
+        why: String,
+    },
 }
 
 fn io_err(path: &Path) -> impl Fn(std::io::Error) -> ExportError + '_ {

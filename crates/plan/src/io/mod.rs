@@ -34,24 +34,50 @@ pub use units::{check_units, UnitsError};
 /// Why a file could not be read. Every variant names the file and, where it helps, the place.
 #[derive(Debug, thiserror::Error)]
 pub enum ReadError {
+    /// Opening or reading the file failed.
     #[error("{path}: {source}")]
     Io {
+        /// The file.
         path: String,
+        /// The underlying error.
         source: std::io::Error,
     },
+    /// The file is none of the formats read.
     #[error("{path}: unrecognised format ({why})")]
-    UnknownFormat { path: String, why: String },
+    UnknownFormat {
+        /// The file.
+        path: String,
+        /// What was seen.
+        why: String,
+    },
+    /// The file is malformed for its format.
     #[error("{path} ({format}): {why}{}", at.as_ref().map(|a| format!(" at {a}")).unwrap_or_default())]
     Invalid {
+        /// The file.
         path: String,
+        /// The format it was read as.
         format: &'static str,
+        /// What is wrong.
         why: String,
+        /// Where, when known (a line, a record).
         at: Option<String>,
     },
+    /// The pose sidecar is malformed.
     #[error("{path}: poses: {why}")]
-    Poses { path: String, why: String },
+    Poses {
+        /// The file.
+        path: String,
+        /// What is wrong.
+        why: String,
+    },
+    /// The read options do not suit the file.
     #[error("{path}: {why}")]
-    Options { path: String, why: String },
+    Options {
+        /// The file.
+        path: String,
+        /// What is wrong.
+        why: String,
+    },
     /// `ReadOptions::cancel` stopped the read.
     #[error("{1}: reading stopped: {0}")]
     Cancelled(Cancelled, String),

@@ -5,10 +5,10 @@
 
 use crate::plan::FloorPlan;
 
-pub mod ifc;
+pub(crate) mod ifc;
 #[cfg(test)]
 pub(crate) mod python;
-pub mod rooms_csv;
+pub(crate) mod rooms_csv;
 
 /// One result format.
 #[derive(Debug, Clone, Copy)]
@@ -17,6 +17,7 @@ pub struct Output {
     pub name: &'static str,
     /// The file name results are stored and served under.
     pub file: &'static str,
+    /// The media type results are served with.
     pub media_type: &'static str,
     /// What the file is, for the CLI's help ("Also write ...").
     pub about: &'static str,

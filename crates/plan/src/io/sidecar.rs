@@ -45,7 +45,9 @@ impl FromStr for SidecarKind {
 /// Scanner positions from a sidecar, in world coordinates.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Sidecar {
+    /// Static scans: one pose per scan.
     Poses(Vec<ScanPose>),
+    /// A mobile scan: the scanner's path, in time order.
     Trajectory(Vec<TrajectorySample>),
 }
 
@@ -58,6 +60,7 @@ impl Sidecar {
         })
     }
 
+    /// Which kind of sidecar this is.
     pub fn kind(&self) -> SidecarKind {
         match self {
             Sidecar::Poses(_) => SidecarKind::Poses,

@@ -8,13 +8,17 @@ pub const MAX_HEIGHT_M: f64 = 150.0;
 /// A cloud whose size says its units are not metres.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum UnitsError {
+    /// The cloud is far taller than a building interior in metres.
     #[error(
         "the cloud is {height:.0} units tall, far more than a building interior in metres; \
          it is probably in {unit}: pass --scale {scale} (the scale option) to convert it"
     )]
     NotMetres {
+        /// The cloud's height, in its own units.
         height: f64,
+        /// The unit it is probably in.
         unit: &'static str,
+        /// The scale that converts it to metres.
         scale: f64,
     },
 }

@@ -14,16 +14,28 @@ use crate::plan::FloorPlan;
 /// Why a plan's CRS cannot be turned into WGS84.
 #[derive(Debug, thiserror::Error)]
 pub enum Wgs84Error {
+    /// An EPSG code outside proj4rs's table.
     #[error("EPSG:{0} is not in the table of EPSG codes")]
     UnknownEpsg(String),
+    /// WKT proj4wkt cannot read.
     #[error("the CRS's WKT cannot be used: {0}")]
     Wkt(String),
+    /// A CRS proj4rs cannot set up.
     #[error("the CRS cannot be used: {0}")]
     Crs(String),
+    /// A geographic CRS: the plan's metres are not its degrees.
     #[error("the CRS is geographic (degrees), not a projection in metres")]
     Geographic,
+    /// One position failed to transform.
     #[error("position ({x}, {y}) does not transform: {reason}")]
-    Position { x: f64, y: f64, reason: String },
+    Position {
+        /// The position's x.
+        x: f64,
+        /// The position's y.
+        y: f64,
+        /// Why it does not transform.
+        reason: String,
+    },
 }
 
 /// A transformation from one projected CRS to WGS84 longitude and latitude.

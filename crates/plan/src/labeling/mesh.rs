@@ -29,8 +29,10 @@ pub struct Mesh {
 /// Why a mesh could not be built.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum MeshError {
+    /// Fewer than 3 distinct samples.
     #[error("too few wall samples to triangulate: {0} (need at least 3 distinct)")]
     TooFewSamples(usize),
+    /// A sample's coordinate is not finite or too large.
     #[error("a sample coordinate is not finite or too large: {0:?}")]
     BadCoordinate(P2),
 }

@@ -1,7 +1,7 @@
 //! Stage 4 (§3.3): Delaunay triangulation of the wall samples and 2D Eigencrust inside/outside
 //! labeling. See `shared/design/eigencrust-2d.md` for the derivation.
 //!
-//! - [`mesh`]: spade Delaunay of the samples plus four box corners.
+//! - `mesh`: spade Delaunay of the samples plus four box corners.
 //! - `weights`: poles and the signed edge weights (eq. (1) for adjacent poles).
 //! - `walk`: exact straight-line walks (point location, lines of sight, the mobile path).
 //! - `constraints`: forced inside/outside triangles.
@@ -9,7 +9,7 @@
 //!   Lanczos on one sparse Cholesky factor) and the harmonic solution from the same factor.
 
 mod constraints;
-pub mod mesh;
+pub(crate) mod mesh;
 mod spectral;
 mod walk;
 mod weights;
@@ -59,7 +59,9 @@ pub struct LabelingParams {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Solver {
+    /// The paper's spectral partition (the pencil's smallest eigenvector).
     Eigen,
+    /// The harmonic solution of the linear system, the variant.
     Harmonic,
 }
 
@@ -90,6 +92,7 @@ impl Default for LabelingParams {
 /// A triangulation with an inside/outside label per triangle.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LabeledMesh {
+    /// The Delaunay triangulation of the samples.
     pub mesh: Mesh,
     /// Per triangle: true when inside (open floor).
     pub inside: Vec<bool>,
@@ -100,16 +103,27 @@ pub struct LabeledMesh {
 /// Why labeling failed.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum LabelingError {
+    /// The triangulation failed.
     #[error(transparent)]
     Mesh(#[from] MeshError),
+    /// Fewer than 3 distinct samples.
     #[error("too few wall samples to label: {0} (need at least 3 distinct)")]
     TooFewSamples(usize),
+    /// The samples are collinear: they enclose no area.
     #[error("the {0} wall samples are collinear: they enclose no area")]
     Collinear(usize),
+    /// A parameter is outside its range.
     #[error("invalid labeling parameter `{name}`: {why}")]
-    BadParam { name: &'static str, why: String },
+    BadParam {
+        /// The parameter's name.
+        name: &'static str,
+        /// What is wrong.
+        why: String,
+    },
+    /// The eigen-solver failed.
     #[error("the eigen-solver failed: {0}")]
     Solver(String),
+    /// The run was stopped from outside.
     #[error(transparent)]
     Cancelled(#[from] Cancelled),
 }
@@ -153,6 +167,7 @@ pub struct LabelingReport {
     pub conflicts: usize,
     /// Lines of sight walked, and skipped (viewpoint outside the triangulation, or degenerate).
     pub rays: usize,
+    /// Lines of sight skipped.
     pub rays_skipped: usize,
     /// Free nodes of the constrained system (its size is this + 1).
     pub free_nodes: usize,

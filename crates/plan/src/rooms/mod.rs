@@ -3,17 +3,17 @@
 //!
 //! The story's valid polygons are the input: interior walls show in them as slits and holes
 //! whose two faces lie a wall's thickness apart. The steps, one module each:
-//! 1. [`faces`]: the polygons' boundary edges, each with the free floor on its left.
-//! 2. [`pairing`]: two antiparallel faces a plausible thickness apart, with solid between them,
+//! 1. `faces`: the polygons' boundary edges, each with the free floor on its left.
+//! 2. `pairing`: two antiparallel faces a plausible thickness apart, with solid between them,
 //!    are one wall: a centre line and a thickness. Faces left alone on the outer ring are
 //!    exterior walls of an assumed thickness.
-//! 3. [`gaps`]: from each end of a paired wall, along its centre line, the free floor up to the
+//! 3. `gaps`: from each end of a paired wall, along its centre line, the free floor up to the
 //!    next face is a gap (a door's width apart); the points over it tell a door (wall above,
 //!    a lintel) from an opening (nothing between the door height and the ceiling).
-//! 4. [`segment`]: the gaps cut the free floor; what falls apart are the rooms. A door that
+//! 4. `segment`: the gaps cut the free floor; what falls apart are the rooms. A door that
 //!    separates nothing (free floor goes around it, as between a column and a wall) is no door
 //!    and its cut is undone; an opening stays only when both sides are rooms of their own.
-//! 5. [`windows`]: gaps in the points along outer walls with wall below and above them.
+//! 5. `windows`: gaps in the points along outer walls with wall below and above them.
 
 pub(crate) mod faces;
 pub(crate) mod gaps;
@@ -147,8 +147,14 @@ impl RoomsParams {
 /// this; it never fails a job.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum RoomsError {
+    /// A parameter is outside its range.
     #[error("parameter `{name}`: {why}")]
-    BadParam { name: &'static str, why: String },
+    BadParam {
+        /// The parameter's name.
+        name: &'static str,
+        /// What is wrong.
+        why: String,
+    },
     /// The free floor cut at the doors could not be made valid.
     #[error("the rooms could not be made valid: {0}")]
     Invalid(String),
@@ -157,13 +163,16 @@ pub enum RoomsError {
 /// A scanner position: its index as the user names it, and where it stood (local frame).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Scanner {
+    /// The scan's index as the user names it.
     pub index: usize,
+    /// Where it stood, local frame.
     pub position: [f64; 3],
 }
 
 /// What [`find_rooms`] found on one story.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RoomsOutcome {
+    /// The story's rooms, doors, windows and centre-line walls.
     pub spaces: Spaces,
     /// Things worth telling the user.
     pub notes: Vec<String>,
@@ -173,6 +182,7 @@ pub struct RoomsOutcome {
 /// given; only those between the story's floor and ceiling are read). Empty when the cloud is
 /// not held (streaming), and then no gap is known to have a lintel.
 pub struct StoryPoints<'a> {
+    /// Local x, y, z of the points.
     pub xyz: &'a [[f32; 3]],
 }
 

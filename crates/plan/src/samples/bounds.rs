@@ -19,7 +19,9 @@ pub struct GridFrame {
     pub origin: [f64; 2],
     /// d_s, metres.
     pub cell: f64,
+    /// Cells in x.
     pub nx: usize,
+    /// Cells in y.
     pub ny: usize,
 }
 
@@ -53,11 +55,14 @@ impl GridFrame {
 /// A rectangle of cells, `i` by `j`, half-open.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct CellRange {
+    /// The cells' x indices.
     pub i: Range<usize>,
+    /// The cells' y indices.
     pub j: Range<usize>,
 }
 
 impl CellRange {
+    /// True when the range holds no cell.
     pub fn is_empty(&self) -> bool {
         self.i.is_empty() || self.j.is_empty()
     }
@@ -91,9 +96,13 @@ impl CellRange {
 /// Bounds of parts of a cloud merge into the bounds of the whole.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StoryBounds {
+    /// Smallest local x, y of the story's points.
     pub lo: [f32; 2],
+    /// Largest local x, y of the story's points.
     pub hi: [f32; 2],
+    /// Points within the story.
     pub n: usize,
+    /// Points with a non-finite coordinate, left out.
     pub non_finite: usize,
 }
 
@@ -199,6 +208,7 @@ impl StoryBounds {
         }
     }
 
+    /// The bounds of both parts together.
     pub fn merge(a: StoryBounds, b: StoryBounds) -> StoryBounds {
         StoryBounds {
             lo: [a.lo[0].min(b.lo[0]), a.lo[1].min(b.lo[1])],
@@ -244,6 +254,7 @@ pub struct Blocks {
 }
 
 impl Blocks {
+    /// Points per block.
     pub const SIZE: usize = 1 << 16;
 
     /// The index ranges of the points that may belong to `story`, in order.

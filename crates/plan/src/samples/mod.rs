@@ -1,10 +1,10 @@
 //! Stage 2 (§3.1): wall samples on a d_s grid, with PCA normals.
 //!
-//! The story's points are counting-sorted by grid cell ([`grid`]). A cell's neighbourhood is
+//! The story's points are counting-sorted by grid cell (`grid`). A cell's neighbourhood is
 //! every point within d_s, horizontally, of its centre, so it is gathered from the 3 × 3 block
 //! of cells around it. Per-cell height summaries rule out most cells (open floor, ceiling)
-//! before any neighbourhood is gathered; the rest run the tests of [`cell`] in the paper's
-//! order. With scanner poses, [`views`] orients the normals and drops far samples.
+//! before any neighbourhood is gathered; the rest run the tests of `cell` in the paper's
+//! order. With scanner poses, `views` orients the normals and drops far samples.
 
 mod bounds;
 mod cell;
@@ -108,6 +108,7 @@ pub struct WallSample {
 /// A story's wall samples, with the scanner positions that saw them.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct WallSamples {
+    /// The story's wall samples.
     pub samples: Vec<WallSample>,
     /// Scanner positions (local x, y) that saw this story: static poses, or trajectory positions.
     pub viewpoints: Vec<P2>,
@@ -122,16 +123,35 @@ pub struct WallSamples {
 /// Why sampling failed.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum SamplesError {
+    /// A parameter is outside its range.
     #[error("invalid samples parameter `{name}`: {why}")]
-    BadParam { name: &'static str, why: String },
+    BadParam {
+        /// The parameter's name.
+        name: &'static str,
+        /// What is wrong.
+        why: String,
+    },
+    /// The story holds no points.
     #[error("story {level} has no points")]
-    EmptyStory { level: usize },
+    EmptyStory {
+        /// The story's level.
+        level: usize,
+    },
+    /// Some points have non-finite coordinates.
     #[error("{0} points have non-finite coordinates")]
     NonFinite(usize),
+    /// The grid would be too large; the text says by how much.
     #[error("{0}")]
     TooLarge(String),
+    /// No cell passed the wall tests; `why` says what was seen.
     #[error("story {level}: no cell passed the wall tests ({why})")]
-    NoWalls { level: usize, why: String },
+    NoWalls {
+        /// The story's level.
+        level: usize,
+        /// What the cells showed.
+        why: String,
+    },
+    /// The run was stopped from outside.
     #[error(transparent)]
     Cancelled(#[from] Cancelled),
 }

@@ -80,7 +80,9 @@ pub struct StoryModel {
 /// A building in its own frame (metres, z up).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Building {
+    /// The building's name, as the simulator's list gives it.
     pub name: String,
+    /// Its stories, from the lowest up.
     pub stories: Vec<StoryModel>,
 }
 

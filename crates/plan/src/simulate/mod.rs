@@ -49,6 +49,7 @@ pub const MAX_POINTS: usize = 200_000_000;
 pub struct ScanOptions {
     /// Points to generate in total (rays that hit nothing are not replaced).
     pub points: usize,
+    /// Seed of the random generator: the same seed gives the same cloud.
     pub seed: u64,
     /// Standard deviation of the range noise, metres.
     pub noise: f64,
@@ -113,15 +114,23 @@ impl Default for ScanOptions {
 /// Why a scan could not be simulated.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum SimulateError {
+    /// An option is outside its range.
     #[error("invalid simulation option `{name}`: {why}")]
-    BadOption { name: &'static str, why: String },
+    BadOption {
+        /// The option's name.
+        name: &'static str,
+        /// What is wrong.
+        why: String,
+    },
 }
 
 /// A scanned building: the cloud (local frame, origin = offset, with poses or a trajectory
 /// attached) and the ground truth (same frame).
 #[derive(Debug, Clone)]
 pub struct Simulation {
+    /// The simulated scan.
     pub cloud: PointCloud,
+    /// The ground truth, in the cloud's frame.
     pub truth: Truth,
     /// Where the scanners really were (poses or trajectory, local frame), whatever the cloud
     /// keeps.

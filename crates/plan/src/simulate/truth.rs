@@ -13,13 +13,22 @@ use crate::plan::{
 #[serde(tag = "model", rename_all = "lowercase")]
 pub enum TruthWall {
     /// A straight piece from `a` to `b`.
-    Line { a: P2, b: P2 },
+    Line {
+        /// Start.
+        a: P2,
+        /// End.
+        b: P2,
+    },
     /// A circular piece: from angle `start` (radians, counter-clockwise from +x) through `sweep`
     /// radians (negative sweeps run clockwise). A full circle has `sweep` = 2π.
     Arc {
+        /// The centre, local coordinates.
         center: P2,
+        /// The radius, metres.
         radius: f64,
+        /// Start angle, radians.
         start: f64,
+        /// Sweep, radians.
         sweep: f64,
     },
 }
@@ -113,8 +122,11 @@ pub fn rotate(p: P2, angle: f64) -> P2 {
 /// One story's ground truth (local frame).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TruthStory {
+    /// The story's index, from the lowest up.
     pub level: usize,
+    /// The floor's local height.
     pub floor_z: f64,
+    /// The ceiling's local height.
     pub ceiling_z: f64,
     /// Open floor, door openings included; exteriors CCW, holes CW, arcs densified to 1 mm.
     pub polygons: Vec<Polygon>,
@@ -130,6 +142,7 @@ pub struct TruthStory {
 /// One room of the truth.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TruthRoom {
+    /// The room's floor, local coordinates.
     pub polygon: Polygon,
     /// Net floor area, m².
     pub area: f64,
@@ -140,13 +153,16 @@ pub struct TruthRoom {
 pub struct TruthDoor {
     /// The jambs, on the wall's centre line.
     pub a: P2,
+    /// The other jamb.
     pub b: P2,
+    /// The door's width, metres.
     pub width: f64,
     /// The pierced wall's thickness: the interior walls' thickness, where doors are.
     pub depth: f64,
 }
 
 impl TruthDoor {
+    /// The midpoint of the jambs.
     pub fn center(&self) -> P2 {
         geom::scale(geom::add(self.a, self.b), 0.5)
     }
@@ -178,8 +194,11 @@ impl TruthRoom {
 /// A whole building's ground truth: world = `origin` + local.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Truth {
+    /// The building's name.
     pub building: String,
+    /// World coordinates of the local frame.
     pub origin: [f64; 3],
+    /// The stories, from the lowest up.
     pub stories: Vec<TruthStory>,
 }
 

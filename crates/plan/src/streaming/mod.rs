@@ -15,8 +15,6 @@
 //!
 //! The plan is the in-memory one ([`crate::pipeline::plan`] on the whole cloud).
 
-#![warn(missing_docs)]
-
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -37,6 +35,18 @@ use crate::samples::{
 };
 use crate::stories::{HeightHistogram, Story};
 use crate::viewpoints;
+
+// The whole run's progress as the passes before the stories start, so the slow passes move the
+// bar: pass 1 (the survey) takes the first 30 %, pass 2 (the tile files) the next 20 %, and
+// sampling the tiles 30 % more, tile by tile.
+/// Progress as pass 1, the survey, starts.
+const SURVEY_AT: f64 = 0.0;
+/// Progress as pass 2 starts: the height histogram and the tile files.
+const SPILL_AT: f64 = 0.3;
+/// Progress as the tiles' sampling starts.
+const TILES_AT: f64 = 0.5;
+/// The share the tiles' sampling takes, spread evenly over the tiles.
+const TILES_SHARE: f64 = 0.3;
 
 /// Parameters of [`plan_file`].
 #[derive(Debug, Clone, PartialEq)]
@@ -134,7 +144,7 @@ pub fn plan_file(
         keep_time,
         ..read.clone()
     };
-    progress.report(Stage::Read, 0.0);
+    progress.report(Stage::Read, SURVEY_AT);
 
     // Pass 1: bounds and the coarse count.
     let clock = Instant::now();
@@ -151,7 +161,7 @@ pub fn plan_file(
     stop()?;
 
     // Pass 2: the height histogram, the units check's sample, and the tile files.
-    progress.report(Stage::Read, 0.3);
+    progress.report(Stage::Read, SPILL_AT);
     let clock = Instant::now();
     let spilled = spill_pass(
         path, &read, &survey, &skeleton, &tiling, params, stream, &stop,
@@ -174,7 +184,7 @@ pub fn plan_file(
     stop()?;
 
     // The tiles: each story's bounds, then its cells.
-    progress.report(Stage::Samples, 0.5);
+    progress.report(Stage::Samples, TILES_AT);
     let clock = Instant::now();
     let (mut samples, max_tile_points) = sample_tiles(
         &store, &skeleton, &stories, &tiling, params, &cancel, progress, &stop,
@@ -351,7 +361,8 @@ fn sample_tiles(
     let mut max_tile_points = 0;
     for t in 0..tiling.count() {
         stop()?;
-        progress.report(Stage::Samples, 0.5 + 0.3 * t as f64 / tiling.count() as f64);
+        let done = t as f64 / tiling.count() as f64;
+        progress.report(Stage::Samples, TILES_AT + TILES_SHARE * done);
         let cloud = tile_cloud(t)?;
         max_tile_points = max_tile_points.max(cloud.len() as u64);
         for (entry, story) in scans.iter_mut().zip(stories) {

@@ -4,10 +4,10 @@
 //! neither happens and the plan rests on geometry alone.
 //!
 //! - Static scans with scan ids but no poses: each scan's blind cone under the tripod gives
-//!   its scanner position ([`cone`]).
+//!   its scanner position (`cone`).
 //! - A mobile scan with times but no trajectory: the same cone, fitted to the points of short
-//!   time windows, gives the path ([`path`]).
-//! - Plain x, y, z: [`open_space`] places pseudo-viewpoints in the open space each story's wall
+//!   time windows, gives the path (`path`).
+//! - Plain x, y, z: `open_space` places pseudo-viewpoints in the open space each story's wall
 //!   samples enclose, after sampling, where floor or ceiling points were scanned.
 //!
 //! Estimated viewpoints are used exactly as given ones; [`ViewpointsReport`] says which are
@@ -36,7 +36,7 @@ pub struct ViewpointsParams {
     /// Points per time window of a mobile scan (of the evenly thinned cloud).
     pub window_points: usize,
     /// Plain x, y, z (no poses, scan ids or times): place pseudo-viewpoints in the open space
-    /// the wall samples enclose ([`open_space`]). `false` plans such clouds on geometry alone.
+    /// the wall samples enclose (`open_space`). `false` plans such clouds on geometry alone.
     pub open_space: bool,
     /// Pseudo-viewpoints stand at least this far from every wall sample, metres.
     pub open_space_clearance: f64,
@@ -64,8 +64,14 @@ impl Default for ViewpointsParams {
 /// A parameter out of range.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum ViewpointsError {
+    /// A parameter is outside its range.
     #[error("invalid viewpoints parameter `{name}`: {why}")]
-    BadParam { name: &'static str, why: String },
+    BadParam {
+        /// The parameter's name.
+        name: &'static str,
+        /// What is wrong.
+        why: String,
+    },
 }
 
 /// The accepted values of [`ViewpointsParams`] (see [`crate::params::ParamRange`]).
@@ -128,11 +134,13 @@ pub struct ScanViewpoint {
 /// A mobile scan's path, as reported.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PathReport {
+    /// True when the path was estimated, not given.
     pub estimated: bool,
     /// Samples of the path.
     pub samples: usize,
     /// Estimated paths: time windows, and those whose scanner position was found.
     pub windows: usize,
+    /// Windows whose scanner position was found.
     pub located: usize,
     /// Estimated paths: median residual of the windows' cone fits, metres.
     pub residual: Option<f64>,
@@ -143,11 +151,13 @@ pub struct PathReport {
 /// One story's pseudo-viewpoints (plain x, y, z).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct OpenSpaceStory {
+    /// The story's level.
     pub level: usize,
     /// Pseudo-viewpoints placed, local frame.
     pub viewpoints: Vec<[f64; 2]>,
     /// Wall samples that some pseudo-viewpoint sees.
     pub samples_seen: usize,
+    /// Wall samples of the story.
     pub samples: usize,
 }
 
@@ -155,6 +165,7 @@ pub struct OpenSpaceStory {
 /// (`floorplan.input.viewpoints`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ViewpointsReport {
+    /// Where the viewpoints came from.
     pub source: ViewpointSource,
     /// Static scans, one per scan id.
     pub scans: Vec<ScanViewpoint>,
@@ -184,6 +195,7 @@ impl Default for ViewpointsReport {
 pub struct Estimate {
     /// The viewpoints to plan with instead of the cloud's; `None` to use the cloud's own.
     pub viewpoints: Option<Viewpoints>,
+    /// What to report of them.
     pub report: ViewpointsReport,
 }
 

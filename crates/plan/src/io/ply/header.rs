@@ -16,8 +16,11 @@ const MAX_PROPERTIES: usize = 1024;
 /// How a PLY file's body is encoded.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Encoding {
+    /// `format ascii 1.0`.
     Ascii,
+    /// `format binary_little_endian 1.0`.
     BinaryLittleEndian,
+    /// `format binary_big_endian 1.0`.
     BinaryBigEndian,
 }
 

@@ -11,7 +11,9 @@ use crate::cloud::PointCloud;
 #[derive(Debug, thiserror::Error)]
 #[error("cannot write {path}: {source}")]
 pub struct WriteError {
+    /// The file.
     pub path: String,
+    /// The underlying error.
     pub source: std::io::Error,
 }
 

@@ -7,8 +7,6 @@
 //! through a JSON tree; trajectories (`trajectory.rs`) can be long and are deserialised straight
 //! into typed samples.
 
-#![warn(missing_docs)]
-
 use std::path::Path;
 
 use super::ReadError;
