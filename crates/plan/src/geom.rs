@@ -53,6 +53,26 @@ pub fn ring_signed_area(ring: &[P2]) -> f64 {
         / 2.0
 }
 
+/// A ring closed by repeating its first position, with consecutive repeats dropped (a ring
+/// given closed is not closed twice). `None` when fewer than three positions remain.
+pub fn closed_ring(points: impl IntoIterator<Item = P2>) -> Option<Vec<P2>> {
+    let points = points.into_iter();
+    let mut out: Vec<P2> = Vec::with_capacity(points.size_hint().0 + 1);
+    for p in points {
+        if out.last() != Some(&p) {
+            out.push(p);
+        }
+    }
+    while out.len() > 1 && out.first() == out.last() {
+        out.pop();
+    }
+    if out.len() < 3 {
+        return None;
+    }
+    out.push(out[0]);
+    Some(out)
+}
+
 /// Distance from `p` to the segment `a`–`b`.
 pub fn point_segment_distance(p: P2, a: P2, b: P2) -> f64 {
     let ab = sub(b, a);
@@ -92,6 +112,25 @@ mod tests {
         let mut cw = sq;
         cw.reverse();
         assert_eq!(ring_signed_area(&cw), -1.0);
+    }
+
+    #[test]
+    fn closed_ring_drops_repeats_and_closes_once() {
+        let sq = [
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [1.0, 0.0],
+            [1.0, 1.0],
+            [0.0, 1.0],
+            [0.0, 0.0],
+        ];
+        let ring = closed_ring(sq).unwrap();
+        assert_eq!(ring.len(), 5);
+        assert_eq!(ring.first(), ring.last());
+        assert_eq!(ring[1], [1.0, 0.0]);
+        assert_eq!(ring[2], [1.0, 1.0]);
+        // Two distinct positions are no ring.
+        assert!(closed_ring([[0.0, 0.0], [1.0, 0.0], [0.0, 0.0]]).is_none());
     }
 
     #[test]

@@ -5,7 +5,7 @@
 
 use serde_json::{json, Map, Value};
 
-use crate::geom::{ring_signed_area, P2};
+use crate::geom::{closed_ring, ring_signed_area, P2};
 use crate::plan::{
     Door, DoorKind, FloorPlan, Polygon, Room, StoryPlan, Wall, WallCentre, WallModel, Window,
 };
@@ -139,27 +139,13 @@ fn feature(geometry: Value, properties: Value) -> Value {
 fn ring(plan: &FloorPlan, points: &[P2], ccw: bool) -> Option<Vec<[f64; 2]>> {
     // Winding is judged on local coordinates, where the arithmetic is exact enough.
     let reverse = (ring_signed_area(points) > 0.0) != ccw;
-    let mut out: Vec<[f64; 2]> = Vec::with_capacity(points.len() + 1);
     let ordered: Box<dyn Iterator<Item = &P2>> = if reverse {
         Box::new(points.iter().rev())
     } else {
         Box::new(points.iter())
     };
-    for &p in ordered {
-        let q = position(plan, p);
-        if out.last() != Some(&q) {
-            out.push(q);
-        }
-    }
-    // An input that was already closed, or rounding, can leave the first position at the end.
-    while out.len() > 1 && out.first() == out.last() {
-        out.pop();
-    }
-    if out.len() < 3 {
-        return None;
-    }
-    out.push(out[0]);
-    Some(out)
+    // Rounding can join neighbours, and an input given closed ends on its first position.
+    closed_ring(ordered.map(|&p| position(plan, p)))
 }
 
 /// A polygon's rings (exterior first), or `None` when its exterior is degenerate.

@@ -17,7 +17,7 @@
 
 use std::fmt::{Display, Write};
 
-use crate::geom::{dist, normalize, point_segment_distance, sub, P2};
+use crate::geom::{closed_ring, dist, normalize, point_segment_distance, sub, P2};
 use crate::plan::{DoorKind, FloorPlan, Polygon, Room, StoryPlan, WallCentre};
 
 /// Why IFC could not be written.
@@ -256,12 +256,12 @@ impl Writer {
 
     /// A polygon's area profile; `None` when its exterior is degenerate.
     fn profile(&mut self, polygon: &Polygon) -> Option<Id> {
-        let outer = closed(&polygon.exterior)?;
+        let outer = closed_ring(polygon.exterior.iter().copied())?;
         let outer = self.polyline(&outer);
         let holes: Vec<Id> = polygon
             .holes
             .iter()
-            .filter_map(|h| closed(h))
+            .filter_map(|h| closed_ring(h.iter().copied()))
             .map(|h| self.polyline(&h))
             .collect();
         Some(if holes.is_empty() {
@@ -612,24 +612,6 @@ fn host<'h, 'a>(hosts: &'h [HostWall<'a>], a: P2, b: P2) -> Option<&'h HostWall<
         })
         .min_by(|x, y| x.1.total_cmp(&y.1))
         .map(|(h, _)| h)
-}
-
-/// A ring without repeated positions, closed by repeating its first; `None` below three.
-fn closed(ring: &[P2]) -> Option<Vec<P2>> {
-    let mut out: Vec<P2> = Vec::with_capacity(ring.len() + 1);
-    for &p in ring {
-        if out.last() != Some(&p) {
-            out.push(p);
-        }
-    }
-    while out.len() > 1 && out.first() == out.last() {
-        out.pop();
-    }
-    if out.len() < 3 {
-        return None;
-    }
-    out.push(out[0]);
-    Some(out)
 }
 
 #[cfg(test)]
