@@ -50,8 +50,33 @@ fn in_memory(path: &Path, world: &[ScanPose], params: &Params) -> FloorPlan {
     asbuilt_plan::plan(&cloud, params, &mut NoProgress).unwrap()
 }
 
-/// Everything but the timings.
+/// The note a streamed plan carries: it holds no points to look for lintels over door gaps.
+const NO_LINTELS: &str = "no points held to look for lintels";
+
+/// `plan` as a streamed plan sees it: doors without lintel heights, and the note saying so.
+fn without_lintels(plan: &FloorPlan) -> FloorPlan {
+    let mut plan = plan.clone();
+    plan.notes.retain(|n| !n.contains(NO_LINTELS));
+    for story in &mut plan.stories {
+        for door in &mut story.spaces.doors {
+            door.head_z = None;
+        }
+    }
+    plan
+}
+
+/// Everything but the timings and what only the points can tell (lintel heights, which a
+/// streamed plan does not see and says so once per story with doors).
 fn assert_same_plan(a: &FloorPlan, b: &FloorPlan) {
+    let doors = |p: &FloorPlan| p.stories.iter().any(|s| !s.spaces.doors.is_empty());
+    if doors(b) {
+        assert!(
+            b.notes.iter().any(|n| n.contains(NO_LINTELS)),
+            "{:?}",
+            b.notes
+        );
+    }
+    let (a, b) = (&without_lintels(a), &without_lintels(b));
     assert_eq!(a.origin, b.origin);
     assert_eq!(a.crs, b.crs);
     assert_eq!(a.input, b.input);
