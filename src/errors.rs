@@ -21,6 +21,7 @@ pub enum Code {
     ResultNotReady,
     JobFinished,
     UploadConflict,
+    NeedsS3,
     PayloadTooLarge,
     UriTooLong,
     RangeNotSatisfiable,
@@ -37,7 +38,7 @@ pub enum Code {
 }
 
 /// Every code, in the order the OpenAPI document lists them.
-pub const CODES: [Code; 24] = [
+pub const CODES: [Code; 25] = [
     Code::InvalidRequest,
     Code::InvalidMultipart,
     Code::Unauthorized,
@@ -49,6 +50,7 @@ pub const CODES: [Code; 24] = [
     Code::ResultNotReady,
     Code::JobFinished,
     Code::UploadConflict,
+    Code::NeedsS3,
     Code::PayloadTooLarge,
     Code::UriTooLong,
     Code::RangeNotSatisfiable,
@@ -128,6 +130,11 @@ impl Code {
                 "upload_conflict",
                 409,
                 "A resumable upload's `Upload-Offset` is not where it stands (HEAD tells), a PATCH goes past its length, or a job was asked of an incomplete upload.",
+            ),
+            Code::NeedsS3 => (
+                "needs_s3",
+                501,
+                "The endpoint needs the S3 storage back end (pre-signed uploads); this server keeps blobs in a local directory.",
             ),
             Code::PayloadTooLarge => (
                 "payload_too_large",

@@ -35,6 +35,10 @@ pub const ROUTES: &[(&str, &str)] = &[
     ("PATCH", "/v1/uploads/{id}"),
     ("DELETE", "/v1/uploads/{id}"),
     ("POST", "/v1/uploads/{id}/job"),
+    ("POST", "/v1/direct-uploads"),
+    ("GET", "/v1/direct-uploads/{id}"),
+    ("DELETE", "/v1/direct-uploads/{id}"),
+    ("POST", "/v1/direct-uploads/{id}/job"),
 ];
 
 /// Every route: [`ROUTES`], then a download per result of `asbuilt_plan::io::outputs::OUTPUTS`
@@ -189,6 +193,12 @@ pub fn build(state: AppState) -> Router {
                 .layer(DefaultBodyLimit::disable()),
         )
         .route("/v1/uploads/{id}/job", post(jobs::uploads::commit))
+        .route("/v1/direct-uploads", post(jobs::direct::open))
+        .route(
+            "/v1/direct-uploads/{id}",
+            get(jobs::direct::show).delete(jobs::direct::remove),
+        )
+        .route("/v1/direct-uploads/{id}/job", post(jobs::direct::commit))
         // Every result file (`plan.geojson`, ...); `events` is matched first as the fixed path.
         .route("/v1/jobs/{id}/{file}", get(jobs::results::file))
         .fallback(controllers::route_not_found)

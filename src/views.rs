@@ -36,6 +36,9 @@ pub struct JobView {
     pub source_job: Option<String>,
     /// Where the job's end is POSTed (a signed webhook), if anywhere.
     pub callback_url: Option<String>,
+    /// Where the scan lies on the earth, as the client gave it; null when it gave none (the
+    /// scan's own CRS, if any, is declared in `plan.geojson`).
+    pub georeference: Option<asbuilt_plan::georef::Georeference>,
 }
 
 /// Where to find the job's parts.
@@ -82,7 +85,11 @@ impl JobView {
                 .finished_at
                 .map(|at| timestamp(at.saturating_add(retention_ms))),
             attempts: job.attempts,
-            upload: job.upload.clone(),
+            // The georeference is stored with the upload but shown on its own.
+            upload: UploadInfo {
+                georeference: None,
+                ..job.upload.clone()
+            },
             input: job.input.clone(),
             timings_ms: job.timings.clone(),
             parameters: job.params.clone(),
@@ -96,6 +103,7 @@ impl JobView {
             tags: job.meta.tags.clone(),
             source_job: job.is_replan().then(|| job.input_job.to_string()),
             callback_url: job.callback_url.clone(),
+            georeference: job.upload.georeference.clone(),
         }
     }
 }

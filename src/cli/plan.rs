@@ -40,6 +40,8 @@ pub struct PlanArgs {
     pub registration_error: Option<f64>,
     #[command(flatten)]
     pub read: ReadArgs,
+    #[command(flatten)]
+    pub georef: GeorefArgs,
     /// Include each story's wall samples in the outputs.
     #[arg(long)]
     pub emit_samples: bool,
@@ -104,6 +106,62 @@ impl clap::Args for OutputFlags {
     }
 }
 
+/// Where the scan lies on the earth, given or overriding what the file declares: a CRS, or a
+/// local frame placed by an anchor. The fields are those of the API's `georeference`.
+#[derive(clap::Args, Clone, Default)]
+pub struct GeorefArgs {
+    /// The projected CRS of the scan's coordinates, `EPSG:n` or WKT (replaces the file's own).
+    #[arg(long, value_name = "EPSG:N|WKT", conflicts_with = "anchor")]
+    pub crs: Option<String>,
+    /// A local frame: the WGS84 longitude and latitude (degrees) and the height (metres above
+    /// `--height-datum`) of the local point `--anchor-at`.
+    #[arg(long, value_name = "LON,LAT,H", value_parser = triple, allow_hyphen_values = true)]
+    pub anchor: Option<[f64; 3]>,
+    /// The local point the anchor places (default 0,0,0).
+    #[arg(long, value_name = "X,Y,Z", value_parser = triple, allow_hyphen_values = true, requires = "anchor")]
+    pub anchor_at: Option<[f64; 3]>,
+    /// Degrees clockwise from true north to the local +y axis (default 0).
+    #[arg(
+        long,
+        value_name = "DEG",
+        allow_hyphen_values = true,
+        requires = "anchor"
+    )]
+    pub north_rotation: Option<f64>,
+    /// What heights are measured from: a vertical CRS (`EPSG:n`) or a name; declared in the plan.
+    #[arg(long, value_name = "DATUM")]
+    pub height_datum: Option<String>,
+}
+
+fn triple(s: &str) -> Result<[f64; 3], String> {
+    let nums: Vec<f64> = s
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("three comma-separated numbers: {e}"))?;
+    <[f64; 3]>::try_from(nums)
+        .map_err(|n| format!("three comma-separated numbers, not {}", n.len()))
+}
+
+impl GeorefArgs {
+    /// The georeference the flags give, checked; `None` when none was given.
+    pub fn georeference(&self) -> anyhow::Result<Option<asbuilt_plan::georef::Georeference>> {
+        if self.crs.is_none() && self.anchor.is_none() && self.height_datum.is_none() {
+            return Ok(None);
+        }
+        let g = asbuilt_plan::georef::Georeference {
+            crs: self.crs.clone(),
+            anchor: self.anchor,
+            anchor_at: self.anchor_at,
+            north_rotation: self.north_rotation,
+            height_datum: self.height_datum.clone(),
+        };
+        g.check()
+            .map_err(|e| anyhow::anyhow!("--{}: {}", e.field.replace('_', "-"), e.message))?;
+        Ok(Some(g))
+    }
+}
+
 /// How to read the input; shared by `plan` and `info`.
 #[derive(clap::Args, Clone, Default)]
 pub struct ReadArgs {
@@ -136,6 +194,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
     let start = Instant::now();
     // Everything that can be checked cheaply is checked before the long run.
     let params = params(&args)?;
+    let georeference = args.georef.georeference()?;
     if let Some(s) = args.read.scale {
         check_scale(s)?;
     }
@@ -157,6 +216,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
         params: &params,
         stream,
         max_points: None,
+        georeference,
     };
     let mut bar = Bar::new(args.quiet);
     let result = asbuilt_plan::plan_scan(&scan, &mut bar);
@@ -401,6 +461,7 @@ mod tests {
         FloorPlan {
             origin: [100.0, 200.0, 10.0],
             crs: None,
+            georeference: None,
             input: Default::default(),
             parameters: Params::default().to_json(),
             timings_ms: vec![("total".into(), 1)],

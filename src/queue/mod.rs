@@ -120,7 +120,7 @@ pub struct JobError {
 }
 
 /// What was uploaded, recorded when the job is created.
-#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct UploadInfo {
     /// The name the client gave the file, if any (display only; never used as a path).
     pub filename: Option<String>,
@@ -131,6 +131,11 @@ pub struct UploadInfo {
     pub format: String,
     /// `poses` or `trajectory` when a sidecar came with the cloud.
     pub sidecar: Option<String>,
+    /// Where the scan lies on the earth, when the client gave it (a re-plan keeps it unless
+    /// it gives another). Stored with the upload it describes; shown as the job's
+    /// `georeference`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub georeference: Option<asbuilt_plan::georef::Georeference>,
 }
 
 /// What the client attached to a job to find it again: its own reference and tags.

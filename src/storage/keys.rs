@@ -41,6 +41,12 @@ pub fn upload_session(id: JobId) -> String {
     format!("uploads/{id}/session.json")
 }
 
+/// A direct upload's record (its tenant, length, part size, the store's upload id, expiry);
+/// its parts are in the store's multipart upload to the future job's [`cloud`].
+pub fn direct_upload(id: JobId) -> String {
+    format!("uploads/{id}/direct.json")
+}
+
 /// The session's parts, one per `PATCH`, named by their offset so they list in order.
 pub fn upload_parts(id: JobId) -> String {
     format!("uploads/{id}/parts")

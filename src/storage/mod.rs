@@ -6,6 +6,7 @@
 
 pub mod keys;
 pub mod local;
+pub mod presign;
 pub mod s3;
 
 use std::path::{Path, PathBuf};
@@ -99,6 +100,37 @@ pub trait BlobStore: Send + Sync + 'static {
         let _ = key;
         Ok(None)
     }
+    /// Uploads that go straight to the store through pre-signed part URLs, when the store
+    /// offers them (S3); `None` for a local directory.
+    fn direct(&self) -> Option<&dyn DirectUploads> {
+        None
+    }
+}
+
+/// A multipart upload the client sends straight to the store, part by part, each to a
+/// pre-signed URL; the server starts it and joins the parts. Keys are those of [`keys`].
+#[async_trait]
+pub trait DirectUploads: Send + Sync {
+    /// Starts a multipart upload to `key`; its upload id.
+    async fn start(&self, key: &str) -> Result<String, BlobError>;
+    /// The URL to `PUT` part `number` (1 to 10,000) of the upload to, valid for `valid`.
+    async fn part_url(
+        &self,
+        key: &str,
+        upload_id: &str,
+        number: u32,
+        valid: std::time::Duration,
+    ) -> Result<String, BlobError>;
+    /// Joins parts 1 to `etags.len()`, given by the `ETag`s the store answered each `PUT`
+    /// with, into the object at `key`.
+    async fn complete(
+        &self,
+        key: &str,
+        upload_id: &str,
+        etags: Vec<String>,
+    ) -> Result<(), BlobError>;
+    /// Abandons the upload; the store drops its parts.
+    async fn abort(&self, key: &str, upload_id: &str) -> Result<(), BlobError>;
 }
 
 /// A [`BlobStore`] over an `object_store` backend (local directory, S3, ...).

@@ -13,11 +13,13 @@ use async_trait::async_trait;
 use axum::http::Method;
 use bytes::Bytes;
 use object_store::aws::{AmazonS3, AmazonS3Builder};
+use object_store::multipart::{MultipartStore, PartId};
 use object_store::path::Path as ObjectPath;
 use object_store::prefix::PrefixStore;
 use object_store::signer::Signer;
 
-use super::{Blob, BlobError, BlobStore, ByteStream, ObjectBlobStore, Stored};
+use super::presign::{presign, SigningKey};
+use super::{Blob, BlobError, BlobStore, ByteStream, DirectUploads, ObjectBlobStore, Stored};
 
 /// Part size of multipart uploads: S3's minimum, which bounds an upload's memory to a few parts.
 const S3_PART: usize = 5 << 20;
@@ -191,6 +193,79 @@ impl BlobStore for S3BlobStore {
             .signed_url(Method::GET, &self.full_key(key), valid)
             .await?;
         Ok(Some(url.to_string()))
+    }
+
+    fn direct(&self) -> Option<&dyn DirectUploads> {
+        Some(self)
+    }
+}
+
+#[async_trait]
+impl DirectUploads for S3BlobStore {
+    async fn start(&self, key: &str) -> Result<String, BlobError> {
+        Ok(self.signer.create_multipart(&self.full_key(key)).await?)
+    }
+
+    async fn part_url(
+        &self,
+        key: &str,
+        upload_id: &str,
+        number: u32,
+        valid: Duration,
+    ) -> Result<String, BlobError> {
+        // object_store's URL for the object tells the endpoint, the addressing style, the
+        // region and the credential it signs with; the part's own parameters are signed here.
+        let object = self
+            .signer
+            .signed_url(Method::PUT, &self.full_key(key), valid)
+            .await?;
+        let scope = object
+            .query_pairs()
+            .find(|(k, _)| k == "X-Amz-Credential")
+            .map(|(_, v)| v.to_string())
+            .ok_or_else(|| BlobError::Store("the store signs no URLs".into()))?;
+        let region = scope.split('/').nth(2).unwrap_or("us-east-1").to_string();
+        let credential = self.signer.credentials().get_credential().await?;
+        let mut url = object.clone();
+        url.set_query(None);
+        let number = number.to_string();
+        let signed = presign(
+            "PUT",
+            &url,
+            &[("partNumber", &number), ("uploadId", upload_id)],
+            &SigningKey {
+                key_id: &credential.key_id,
+                secret: &credential.secret_key,
+                token: credential.token.as_deref(),
+                region: &region,
+                date: chrono::Utc::now(),
+            },
+            valid.as_secs(),
+        );
+        Ok(signed.to_string())
+    }
+
+    async fn complete(
+        &self,
+        key: &str,
+        upload_id: &str,
+        etags: Vec<String>,
+    ) -> Result<(), BlobError> {
+        let parts = etags
+            .into_iter()
+            .map(|content_id| PartId { content_id })
+            .collect();
+        self.signer
+            .complete_multipart(&self.full_key(key), &upload_id.to_string(), parts)
+            .await?;
+        Ok(())
+    }
+
+    async fn abort(&self, key: &str, upload_id: &str) -> Result<(), BlobError> {
+        self.signer
+            .abort_multipart(&self.full_key(key), &upload_id.to_string())
+            .await?;
+        Ok(())
     }
 }
 

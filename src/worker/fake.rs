@@ -139,6 +139,7 @@ pub fn square_plan(points: u64) -> FloorPlan {
     FloorPlan {
         origin: [0.0; 3],
         crs: None,
+        georeference: None,
         input: InputSummary {
             points,
             format: "xyz".into(),
@@ -224,6 +225,8 @@ impl Pipeline for FakePipeline {
         timings.push(("total".into(), total));
         let mut plan = square_plan(points);
         plan.timings_ms = timings.clone();
+        // Placed as the real pipeline places it, so the WGS84 copy can be followed end to end.
+        plan.georeference = input.georeference.clone();
         let results = JobResults::of(&plan)?;
         if let Some(log) = &self.completions {
             let mut f = std::fs::OpenOptions::new()

@@ -188,6 +188,7 @@ impl Workers {
             sidecar,
             params,
             max_points: self.state.config.max_points,
+            georeference: job.upload.georeference.clone(),
         })
     }
 

@@ -24,6 +24,8 @@ pub struct JobInput {
     pub params: Params,
     /// Clouds with more points fail with `too_many_points`.
     pub max_points: u64,
+    /// The client's georeference, if it gave one.
+    pub georeference: Option<asbuilt_plan::georef::Georeference>,
 }
 
 /// A finished run's files and summary.
@@ -145,6 +147,7 @@ impl Pipeline for PlanPipeline {
             params: &input.params,
             stream: None,
             max_points: Some(input.max_points),
+            georeference: input.georeference.clone(),
         };
         let Planned { plan, .. } = plan_scan(&scan, progress).map_err(|e| failure(e, input))?;
         progress.report(Stage::Write, 1.0);

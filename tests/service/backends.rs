@@ -144,6 +144,7 @@ fn new_job(tenant: &str, max_attempts: u32) -> NewJob {
             sha256: "ab".into(),
             format: "ply".into(),
             sidecar: None,
+            georeference: None,
         },
         max_attempts,
         ..Default::default()

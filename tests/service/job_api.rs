@@ -170,6 +170,8 @@ on_both_backends!(
     events_resume_after_the_last_event_id,
     sidecars_are_checked_before_the_cloud_is_kept,
     resumable_uploads_resume_after_a_drop_and_expire,
+    georeferences_are_checked_stored_and_used,
+    direct_uploads_answer_that_they_need_s3,
 );
 
 /// The sidecar checks again with blobs in S3, where a refused cloud is an object to remove.
@@ -1694,4 +1696,408 @@ async fn resumable_uploads_resume_after_a_drop_and_expire(env: &Env) {
     }
     assert_eq!(offset(&s, &abandoned).await.0, 404);
     s.stop().await;
+}
+
+/// WGS84 degrees to metres, near `lat` (a local flat earth: enough for a few metres).
+fn metres_between(a: &Value, b: [f64; 2]) -> (f64, f64) {
+    let (lon, lat) = (a[0].as_f64().unwrap(), a[1].as_f64().unwrap());
+    let east = (lon - b[0]).to_radians() * 6_378_137.0 * lat.to_radians().cos();
+    let north = (lat - b[1]).to_radians() * 6_356_752.0;
+    (east, north)
+}
+
+/// The story outline's exterior ring of a plan GeoJSON.
+fn story_ring(doc: &Value) -> Vec<Value> {
+    let story = doc["features"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|f| f["properties"]["kind"] == "story")
+        .unwrap_or_else(|| panic!("no story feature: {doc}"));
+    let coords = &story["geometry"]["coordinates"];
+    // A Polygon's or a MultiPolygon's first exterior ring.
+    let ring = if coords[0][0][0].is_array() {
+        &coords[0][0]
+    } else {
+        &coords[0]
+    };
+    ring.as_array().unwrap().clone()
+}
+
+/// A client's georeference: refused with the field named before anything is stored; kept
+/// on the job and shown on every read; carried by re-plans unless replaced; and used for the
+/// plan's CRS and its WGS84 copy (the fake plan's corner (0, 0) lands on the anchor).
+async fn georeferences_are_checked_stored_and_used(env: &Env) {
+    let mut s = env.start(1, |_| {}).await;
+    let mut contract = Contract::load();
+    let cloud = xyz(40);
+    for (query, param) in [
+        ("crs=EPSG:4326", "crs"),
+        ("crs=EPSG:99999", "crs"),
+        ("crs=PROJCS%5B%22broken", "crs"),
+        ("anchor=8.5,95,0", "anchor"),
+        ("anchor=8.5,47", "anchor"),
+        ("crs=EPSG:25832&north_rotation=5", "north_rotation"),
+        ("crs=EPSG:25832&anchor=8.5,47.3,400", "anchor"),
+        ("anchor=8.5,47.3,400&north_rotation=north", "north_rotation"),
+        ("height_datum=EPSG:5728", "crs"),
+    ] {
+        let path = format!("/v1/jobs?{query}");
+        let (status, _, body) = call(
+            &mut contract,
+            "POST",
+            &path,
+            s.post(&path).body(cloud.clone()),
+        )
+        .await;
+        assert_eq!(status, 422, "{query}");
+        let body = json(&body);
+        assert_eq!(body["error"]["code"], "invalid_parameter", "{query}: {body}");
+        assert_eq!(body["error"]["param"], param, "{query}: {body}");
+    }
+    assert!(env.blobs(&s).await.is_empty(), "refusals kept nothing");
+
+    // A local frame: +y points east (90°), so local +x points south.
+    let path = "/v1/jobs?anchor=8.5417,47.3769,408&north_rotation=90&height_datum=EPSG:5728";
+    let (status, _, body) = call(
+        &mut contract,
+        "POST",
+        path,
+        s.post(path).body(cloud.clone()),
+    )
+    .await;
+    assert_eq!(status, 202, "{}", env.backend);
+    let given = serde_json::json!({
+        "anchor": [8.5417, 47.3769, 408.0],
+        "north_rotation": 90.0,
+        "height_datum": "EPSG:5728"
+    });
+    let job = json(&body);
+    assert_eq!(job["georeference"], given);
+    assert!(job["upload"].get("georeference").is_none(), "{job}");
+    let id = job["id"].as_str().unwrap().to_string();
+    let done = s.wait_done(&id, Duration::from_secs(20)).await;
+    assert_eq!(done["status"], "succeeded", "{done}");
+    assert_eq!(done["georeference"], given, "stored and read back");
+    let listed = listed(&s, "").await;
+    assert_eq!(listed[0]["georeference"], given);
+
+    let path = format!("/v1/jobs/{id}/plan.geojson");
+    let (status, _, body) = call(&mut contract, "GET", &path, s.get(&path)).await;
+    assert_eq!(status, 200);
+    let plan = json(&body);
+    let meta = &plan["floorplan"];
+    assert_eq!(meta["georeference"]["source"], "given", "{meta}");
+    assert_eq!(meta["georeference"]["height_datum"], "EPSG:5728");
+    assert!(
+        meta["crs"].as_str().unwrap().starts_with("+proj=ortho "),
+        "{meta}"
+    );
+    let path = format!("/v1/jobs/{id}/plan.wgs84.geojson");
+    let (status, _, body) = call(&mut contract, "GET", &path, s.get(&path)).await;
+    assert_eq!(status, 200);
+    let copy = json(&body);
+    assert_eq!(copy["floorplan"]["georeferenced"], true, "{}", copy["floorplan"]);
+    assert_eq!(copy["floorplan"]["crs"], "OGC:CRS84");
+    let ring = story_ring(&copy);
+    let local = story_ring(&plan);
+    for (w, l) in ring.iter().zip(&local) {
+        let (x, y) = (l[0].as_f64().unwrap(), l[1].as_f64().unwrap());
+        // With +y east: east = y, north = -x.
+        let (east, north) = metres_between(w, [8.5417, 47.3769]);
+        assert!(
+            (east - y).abs() < 0.01 && (north + x).abs() < 0.01,
+            "local ({x}, {y}) landed {east:.3} m east, {north:.3} m north"
+        );
+    }
+
+    // A re-plan keeps the georeference; one with a CRS replaces it.
+    let path = format!("/v1/jobs/{id}/replan");
+    let (status, _, body) = call(&mut contract, "POST", &path, s.post(&path)).await;
+    assert_eq!(status, 202);
+    assert_eq!(json(&body)["georeference"], given);
+    let path = format!("/v1/jobs/{id}/replan?crs=EPSG:25832");
+    let (status, _, body) = call(&mut contract, "POST", &path, s.post(&path)).await;
+    assert_eq!(status, 202);
+    let replan = json(&body);
+    assert_eq!(replan["georeference"], serde_json::json!({"crs": "EPSG:25832"}));
+    let rid = replan["id"].as_str().unwrap();
+    let done = s.wait_done(rid, Duration::from_secs(20)).await;
+    assert_eq!(done["status"], "succeeded", "{done}");
+    let copy = json(
+        &s.get(&format!("/v1/jobs/{rid}/plan.wgs84.geojson"))
+            .send()
+            .await
+            .unwrap()
+            .bytes()
+            .await
+            .unwrap(),
+    );
+    assert_eq!(copy["floorplan"]["source_crs"], "EPSG:25832");
+    assert_eq!(copy["floorplan"]["georeferenced"], true);
+
+    // As a multipart part; not with query fields too; a bad part is named.
+    let part = r#"{"crs": "EPSG:2056", "height_datum": "EPSG:5728"}"#;
+    let res = s
+        .post("/v1/jobs")
+        .multipart(form(&[
+            ("georeference", part.to_string()),
+            ("cloud", cloud.clone()),
+        ]))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(res.status(), 202);
+    let job: Value = res.json().await.unwrap();
+    assert_eq!(
+        job["georeference"],
+        serde_json::json!({"crs": "EPSG:2056", "height_datum": "EPSG:5728"})
+    );
+    let before = env.blobs(&s).await.len();
+    for (query, part, param) in [
+        ("?crs=EPSG:25832", part, "georeference"),
+        ("", r#"{"crs": "EPSG:25832", "north": 3}"#, "georeference"),
+        ("", r#"{"anchor": [8, 47]}"#, "georeference"),
+        ("", r#"{"crs": "EPSG:4258"}"#, "crs"),
+    ] {
+        let res = s
+            .post(&format!("/v1/jobs{query}"))
+            .multipart(form(&[
+                ("cloud", cloud.clone()),
+                ("georeference", part.to_string()),
+            ]))
+            .send()
+            .await
+            .unwrap();
+        let body = expect_error(res, 422, "invalid_parameter").await;
+        assert_eq!(body["error"]["param"], param, "{part}: {body}");
+    }
+    assert_eq!(env.blobs(&s).await.len(), before, "refused clouds were removed");
+
+    // A resumable upload takes the same query.
+    let res = s
+        .post("/v1/uploads")
+        .header("Upload-Length", cloud.len().to_string())
+        .send()
+        .await
+        .unwrap();
+    let location = res.headers()["location"].to_str().unwrap().to_string();
+    let res = patch(&s, &location, 0, cloud.clone().into())
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(res.status(), 204);
+    let path = format!("{location}/job?crs=EPSG:25832");
+    let (status, _, body) = call(&mut contract, "POST", &path, s.post(&path)).await;
+    assert_eq!(status, 202);
+    assert_eq!(json(&body)["georeference"]["crs"], "EPSG:25832");
+    s.stop().await;
+}
+
+/// With blobs in a local directory, every direct-upload call says it needs S3.
+async fn direct_uploads_answer_that_they_need_s3(env: &Env) {
+    let mut s = env.start(1, |_| {}).await;
+    let mut contract = Contract::load();
+    let id = "0190c1d2-7a3b-7c00-8000-0000000000bb";
+    for (method, path) in [
+        ("POST", "/v1/direct-uploads".to_string()),
+        ("GET", format!("/v1/direct-uploads/{id}")),
+        ("DELETE", format!("/v1/direct-uploads/{id}")),
+        ("POST", format!("/v1/direct-uploads/{id}/job")),
+    ] {
+        let req = match method {
+            "POST" => s.post(&path).body(r#"{"length": 100}"#),
+            "GET" => s.get(&path),
+            _ => s.delete(&path),
+        };
+        let (status, _, body) = call(&mut contract, method, &path, req).await;
+        assert_eq!(status, 501, "{method} {path}");
+        let body = json(&body);
+        assert_eq!(body["error"]["code"], "needs_s3");
+        assert!(
+            body["error"]["message"]
+                .as_str()
+                .unwrap()
+                .contains("/v1/uploads"),
+            "{body}"
+        );
+    }
+    s.stop().await;
+}
+
+/// S3 direct uploads: pre-signed part URLs that take the parts without an API key, a job
+/// from their ETags whose cloud is the whole file, the refusals, the idempotent retry, and an
+/// abandoned upload aborted when it expires.
+async fn direct_uploads_go_straight_to_s3(env: &Env) {
+    let mut s = env.start(1, |c| c.upload_session_secs = 10).await;
+    let mut contract = Contract::load();
+    // Three parts of 5 MiB, S3's smallest, the last shorter.
+    let cloud = xyz(900_000).into_bytes();
+    let part = 5u64 << 20;
+    assert!(cloud.len() as u64 > 2 * part && (cloud.len() as u64) < 3 * part);
+    for (body, param) in [
+        (r#"{"length": 0}"#.to_string(), "length"),
+        (format!(r#"{{"length": {}, "part_size": 1000}}"#, cloud.len()), "part_size"),
+    ] {
+        let res = s.post("/v1/direct-uploads").body(body).send().await.unwrap();
+        let body = expect_error(res, 422, "invalid_parameter").await;
+        assert_eq!(body["error"]["param"], param);
+    }
+    let res = s.post("/v1/direct-uploads").body("{}").send().await.unwrap();
+    expect_error(res, 400, "invalid_request").await;
+
+    let open = format!(r#"{{"length": {}, "part_size": {part}}}"#, cloud.len());
+    let (status, headers, body) = call(
+        &mut contract,
+        "POST",
+        "/v1/direct-uploads",
+        s.post("/v1/direct-uploads").body(open.clone()),
+    )
+    .await;
+    assert_eq!(status, 201, "{}", String::from_utf8_lossy(&body));
+    let upload = json(&body);
+    let id = upload["id"].as_str().unwrap().to_string();
+    assert_eq!(headers["location"], format!("/v1/direct-uploads/{id}").as_str());
+    let parts = upload["parts"].as_array().unwrap().clone();
+    assert_eq!(parts.len(), 3);
+    assert!(parts.iter().all(|p| p["url"].as_str().unwrap().contains("X-Amz-Signature=")));
+
+    // The parts go straight to the store: a plain client, no API key.
+    let plain = reqwest::Client::new();
+    let mut etags = vec![];
+    for p in &parts {
+        let (at, n) = (p["offset"].as_u64().unwrap() as usize, p["length"].as_u64().unwrap() as usize);
+        let res = plain
+            .put(p["url"].as_str().unwrap())
+            .body(cloud[at..at + n].to_vec())
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(res.status(), 200, "{}", res.text().await.unwrap());
+        let etag = res.headers()["etag"].to_str().unwrap().to_string();
+        etags.push(serde_json::json!({"number": p["number"], "etag": etag}));
+    }
+    // Fresh URLs for the same upload.
+    let path = format!("/v1/direct-uploads/{id}");
+    let (status, _, body) = call(&mut contract, "GET", &path, s.get(&path)).await;
+    assert_eq!(status, 200);
+    assert_eq!(json(&body)["parts"].as_array().unwrap().len(), 3);
+
+    // A part left out, or an ETag that is not the part's: conflicts, and the upload stays.
+    let job_path = format!("/v1/direct-uploads/{id}/job?crs=EPSG:25832&tag=direct");
+    let two = serde_json::json!({"parts": &etags[..2]}).to_string();
+    let (status, _, body) = call(
+        &mut contract,
+        "POST",
+        &job_path,
+        s.post(&job_path).body(two),
+    )
+    .await;
+    assert_eq!(status, 409, "{}", String::from_utf8_lossy(&body));
+    assert_eq!(json(&body)["error"]["code"], "upload_conflict");
+
+    let all = serde_json::json!({"parts": etags}).to_string();
+    let (status, headers, body) = call(
+        &mut contract,
+        "POST",
+        &job_path,
+        s.post(&job_path)
+            .header("Idempotency-Key", "direct-1")
+            .body(all.clone()),
+    )
+    .await;
+    assert_eq!(status, 202, "{}", String::from_utf8_lossy(&body));
+    let job = json(&body);
+    assert_eq!(job["id"], id.as_str(), "the job has the upload's id");
+    assert_eq!(headers["location"], format!("/v1/jobs/{id}").as_str());
+    assert_eq!(job["upload"]["bytes"], cloud.len());
+    let sha: String = sha2::Sha256::digest(&cloud)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    assert_eq!(job["upload"]["sha256"], sha);
+    assert_eq!(job["upload"]["format"], "xyz");
+    assert_eq!(job["georeference"]["crs"], "EPSG:25832");
+    assert_eq!(job["tags"], serde_json::json!(["direct"]));
+    let done = s.wait_done(&id, Duration::from_secs(60)).await;
+    assert_eq!(done["status"], "succeeded", "{done}");
+    assert_eq!(done["input"]["points"], 900_000, "the whole cloud, in order");
+    // The upload is used up; a retry with its key answers the job.
+    assert_eq!(s.get(&path).send().await.unwrap().status(), 404);
+    let res = s
+        .post(&job_path)
+        .header("Idempotency-Key", "direct-1")
+        .body(all)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(res.status(), 200);
+    assert_eq!(res.json::<Value>().await.unwrap()["id"], id.as_str());
+    assert!(session_blobs(env, &s).await.is_empty());
+
+    // Not a cloud: refused once joined, and nothing is kept.
+    let (status, _, body) = call(
+        &mut contract,
+        "POST",
+        "/v1/direct-uploads",
+        s.post("/v1/direct-uploads").body(r#"{"length": 11}"#),
+    )
+    .await;
+    assert_eq!(status, 201);
+    let junk = json(&body);
+    let jid = junk["id"].as_str().unwrap().to_string();
+    let res = plain
+        .put(junk["parts"][0]["url"].as_str().unwrap())
+        .body(b"\x00\x01garbage\xff\xfe".to_vec())
+        .send()
+        .await
+        .unwrap();
+    let etag = res.headers()["etag"].to_str().unwrap().to_string();
+    let res = s
+        .post(&format!("/v1/direct-uploads/{jid}/job"))
+        .body(serde_json::json!({"parts": [{"number": 1, "etag": etag}]}).to_string())
+        .send()
+        .await
+        .unwrap();
+    expect_error(res, 415, "unsupported_format").await;
+    assert!(
+        !env.blobs(&s).await.iter().any(|k| k.contains(&jid)),
+        "the refused object was removed"
+    );
+
+    // Abandoned: the sweeper aborts it when it expires, and the record goes.
+    let res = s.post("/v1/direct-uploads").body(open).send().await.unwrap();
+    assert_eq!(res.status(), 201);
+    let abandoned: Value = res.json().await.unwrap();
+    let aid = abandoned["id"].as_str().unwrap();
+    assert_eq!(session_blobs(env, &s).await.len(), 1, "its record");
+    let end = Instant::now() + Duration::from_secs(30);
+    while !session_blobs(env, &s).await.is_empty() {
+        assert!(Instant::now() < end, "the sweeper left the direct upload");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    let res = s.get(&format!("/v1/direct-uploads/{aid}")).send().await.unwrap();
+    assert_eq!(res.status(), 404);
+    s.stop().await;
+}
+
+/// Georeferences with blobs in S3 too.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn georeferences_are_checked_stored_and_used_in_s3() {
+    let test = "georeferences_are_checked_stored_and_used_in_s3";
+    let Some(env) = Env::postgres_s3(test).await else {
+        return;
+    };
+    georeferences_are_checked_stored_and_used(&env).await;
+    env.finish().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn direct_uploads_go_straight_to_s3_with_presigned_parts() {
+    let test = "direct_uploads_go_straight_to_s3_with_presigned_parts";
+    let Some(env) = Env::postgres_s3(test).await else {
+        return;
+    };
+    direct_uploads_go_straight_to_s3(&env).await;
+    env.finish().await;
 }

@@ -32,6 +32,7 @@ pub mod cloud;
 pub mod evaluate;
 pub mod fitting;
 pub mod geom;
+pub mod georef;
 pub mod io;
 pub mod labeling;
 pub mod params;

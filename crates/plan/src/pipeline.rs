@@ -380,6 +380,7 @@ pub(crate) fn plan_stories(
     Ok(FloorPlan {
         origin: cloud.origin,
         crs: cloud.crs.clone(),
+        georeference: None,
         input: InputSummary {
             points: input.points,
             format: cloud.source.format.clone(),

@@ -210,6 +210,8 @@ pub struct FloorPlan {
     pub origin: [f64; 3],
     /// The input's coordinate reference system (WKT or EPSG code), when it states one.
     pub crs: Option<String>,
+    /// The georeference the caller gave ([`crate::Scan::georeference`]); it wins over `crs`.
+    pub georeference: Option<crate::georef::Georeference>,
     /// What was read.
     pub input: InputSummary,
     /// Every parameter the run used, defaults and derived values included.
@@ -220,4 +222,28 @@ pub struct FloorPlan {
     pub stories: Vec<StoryPlan>,
     /// Things worth telling the user (adapted thresholds, skipped stories).
     pub notes: Vec<String>,
+}
+
+/// Who placed a plan on the earth: the caller, or the scan's own CRS.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GeorefSource {
+    /// [`FloorPlan::georeference`], given with the job or on the command line.
+    Given,
+    /// The CRS the scan declared ([`FloorPlan::crs`]).
+    Scan,
+}
+
+impl FloorPlan {
+    /// Where the plan lies: the caller's georeference, else the CRS the scan declared.
+    pub fn placement(&self) -> Option<(crate::georef::Georeference, GeorefSource)> {
+        match (&self.georeference, &self.crs) {
+            (Some(g), _) => Some((g.clone(), GeorefSource::Given)),
+            (None, Some(crs)) => Some((
+                crate::georef::Georeference::of_crs(crs.clone()),
+                GeorefSource::Scan,
+            )),
+            (None, None) => None,
+        }
+    }
 }

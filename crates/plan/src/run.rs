@@ -6,6 +6,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use crate::cancel::Cancelled;
+use crate::georef::Georeference;
 use crate::io::{self, ReadError, ReadOptions, SidecarKind, UnitsError};
 use crate::params::Params;
 use crate::pipeline::{self, PlanError};
@@ -28,6 +29,9 @@ pub struct Scan<'a> {
     pub stream: Option<StreamingParams>,
     /// Clouds with more points are refused, from their header when it tells.
     pub max_points: Option<u64>,
+    /// Where the scan lies on the earth, given or overriding what the file declares; checked
+    /// with [`Georeference::check`] before the run.
+    pub georeference: Option<Georeference>,
 }
 
 /// A finished run.
@@ -125,6 +129,7 @@ impl From<StreamingError> for RunError {
 ///     params: &params,
 ///     stream: None,
 ///     max_points: Some(1_000_000),
+///     georeference: None,
 /// };
 /// let planned = plan_scan(&scan, &mut NoProgress).unwrap();
 /// std::fs::remove_file(&path).unwrap();
@@ -194,6 +199,15 @@ pub fn plan_scan(scan: &Scan<'_>, progress: &mut dyn Progress) -> Result<Planned
             .notes
             .push(format!("input coordinates were multiplied by {s}"));
     }
+    if let Some(g) = &scan.georeference {
+        if let Some(crs) = &planned.plan.crs {
+            let short: String = crs.chars().take(60).collect();
+            planned.plan.notes.push(format!(
+                "the given georeference replaces the CRS the scan declares ({short})"
+            ));
+        }
+        planned.plan.georeference = Some(g.clone());
+    }
     Ok(planned)
 }
 
@@ -228,6 +242,7 @@ mod tests {
         FloorPlan {
             origin: [0.0; 3],
             crs: None,
+            georeference: None,
             input: Default::default(),
             parameters: serde_json::json!({}),
             timings_ms: timings.into_iter().map(|(n, t)| (n.into(), t)).collect(),
@@ -273,6 +288,7 @@ mod tests {
                 params: &params,
                 stream: stream.clone(),
                 max_points: Some(1999),
+                georeference: None,
             };
             let err = plan_scan(&scan, &mut NoProgress).unwrap_err();
             assert_eq!(err.code(), "too_many_points", "{err}");
@@ -299,6 +315,7 @@ mod tests {
                 params: &params,
                 stream,
                 max_points: None,
+                georeference: None,
             };
             let err = plan_scan(&scan, &mut NoProgress).unwrap_err();
             assert_eq!(err.code(), "invalid_poses", "{err}");

@@ -2,8 +2,9 @@
 //!
 //! Two bodies are accepted:
 //! - raw: the cloud itself; parameters as `section.name=value` query pairs, plus `filename`;
-//! - `multipart/form-data`: a `cloud` part, an optional `poses` or `trajectory` part, and an
-//!   optional `params` part (JSON or TOML); query parameters apply on top.
+//! - `multipart/form-data`: a `cloud` part, an optional `poses` or `trajectory` part, an
+//!   optional `params` part (JSON or TOML), and an optional `georeference` part (JSON); query
+//!   parameters apply on top.
 //!
 //! The cloud never sits whole in memory. On any refusal, whatever was stored is deleted.
 
@@ -44,6 +45,8 @@ pub struct Received {
     /// The sidecar's SHA-256, as stored.
     pub sidecar_sha256: Option<String>,
     pub params: Option<Params>,
+    /// The `georeference` part, checked.
+    pub georeference: Option<asbuilt_plan::georef::Georeference>,
 }
 
 pub async fn create(
@@ -112,6 +115,7 @@ async fn accept(
     let options = Options::parse(pairs)?;
     let key = submit::idempotency_key(request.headers())?;
     let callback_url = submit::callback(state, &tenant, options.callback_url.clone()).await?;
+    submit::georeference(options.georeference.clone(), None)?;
     let prior = submit::prior(state, &tenant, key.as_deref()).await?;
     // A tenant at its cap of queued jobs is told before it uploads (and again, atomically,
     // when the job is created); a retry of a job already made is not a new job.
@@ -146,7 +150,13 @@ async fn accept(
                 ..Default::default()
             })
     };
-    let received = match received.and_then(|r| finish_params(r, &options.overrides)) {
+    let received = received
+        .and_then(|r| finish_params(r, &options.overrides))
+        .and_then(|(mut r, params)| {
+            r.georeference = submit::georeference(options.georeference.clone(), r.georeference)?;
+            Ok((r, params))
+        });
+    let received = match received {
         Ok(r) => r,
         Err(e) => {
             if let Err(d) = state.blobs.delete_prefix(&keys::job_prefix(id)).await {
@@ -172,6 +182,7 @@ async fn accept(
             sidecar: sidecar.zip(received.sidecar_sha256.clone()),
             meta: &options.meta,
             callback_url: callback_url.as_deref(),
+            georeference: received.georeference.as_ref(),
         }
         .hash(),
     });
@@ -185,6 +196,7 @@ async fn accept(
             sha256: stored.sha256,
             format: format.to_string(),
             sidecar: sidecar.map(str::to_string),
+            georeference: received.georeference,
         },
         max_attempts: state.config.max_attempts,
         meta: options.meta,
@@ -360,6 +372,19 @@ pub fn refuse_e57_sidecar(format: &str, kind: SidecarKind) -> Result<(), ApiErro
     ))
 }
 
+/// A `georeference` part: a JSON object of the georeference's fields, checked now so a bad
+/// one is refused before the cloud is kept.
+pub fn parse_georeference(bytes: &[u8]) -> Result<asbuilt_plan::georef::Georeference, ApiError> {
+    let g: asbuilt_plan::georef::Georeference = serde_json::from_slice(bytes).map_err(|e| {
+        ApiError::param(
+            "georeference",
+            format!("the `georeference` part is not a georeference object: {e}"),
+        )
+    })?;
+    submit::georeference(None, Some(g.clone()))?;
+    Ok(g)
+}
+
 /// Reads a multipart body: the cloud (only when `with_cloud`; a re-plan has its upload), a
 /// pose or trajectory sidecar, and parameters.
 pub async fn receive_multipart(
@@ -428,11 +453,22 @@ pub async fn receive_multipart(
                 let params = Params::from_file_text(text).map_err(|e| params_error(&e, None))?;
                 got.params = Some(params);
             }
+            "georeference" => {
+                if got.georeference.is_some() {
+                    return Err(ApiError::new(
+                        Code::InvalidMultipart,
+                        "more than one `georeference` part",
+                    ));
+                }
+                let bytes = read_small(field, &name, small).await?;
+                got.georeference = Some(parse_georeference(&bytes)?);
+            }
             other => {
                 return Err(ApiError::new(
                     Code::InvalidMultipart,
                     format!(
-                        "unknown part `{}`; send cloud, poses or trajectory, and params",
+                        "unknown part `{}`; send cloud, poses or trajectory, params, and \
+                         georeference",
                         clean_filename(other)
                     ),
                 ))

@@ -4,6 +4,7 @@ pub mod cancel;
 pub mod create;
 pub mod delete;
 pub mod deliveries;
+pub mod direct;
 mod drain;
 pub mod events;
 pub mod list;

@@ -4,7 +4,8 @@
 //! The body is empty, or `multipart/form-data` with an optional `params` part and an optional
 //! `poses` or `trajectory` part. The new job starts from the job's parameters; a `params` part
 //! replaces them, and query parameters apply on top. Without a sidecar part, the job's own
-//! sidecar (if any) is kept.
+//! sidecar (if any) is kept; without a georeference (query fields or a `georeference` part),
+//! the job's own (if any) is kept.
 
 use asbuilt_plan::Params;
 use axum::extract::rejection::QueryRejection;
@@ -43,6 +44,7 @@ pub async fn replan(
     }
     let key = submit::idempotency_key(request.headers())?;
     let callback_url = submit::callback(&state, &tenant, options.callback_url.clone()).await?;
+    submit::georeference(options.georeference.clone(), None)?;
     let prior = submit::prior(&state, &tenant, key.as_deref()).await?;
     let cap = state.config.max_queued;
     if prior.is_none() && cap > 0 && state.store.queued_count(&tenant).await? >= cap as u64 {
@@ -64,8 +66,8 @@ pub async fn replan(
             if !body.is_empty() {
                 return Err(ApiError::new(
                     Code::InvalidRequest,
-                    "a re-plan takes no body, or multipart `params` and `poses` or \
-                     `trajectory` parts; the cloud is the job's stored upload",
+                    "a re-plan takes no body, or multipart `params`, `poses` or \
+                     `trajectory`, and `georeference` parts; the cloud is the job's stored upload",
                 ));
             }
             Received::default()
@@ -73,6 +75,9 @@ pub async fn replan(
         let base: Params =
             serde_json::from_value(source.params.clone()).map_err(ApiError::internal)?;
         let (mut received, params) = finish_params_from(received, &options.overrides, base)?;
+        received.georeference =
+            submit::georeference(options.georeference.clone(), received.georeference.take())?
+                .or_else(|| source.upload.georeference.clone());
         if received.sidecar.is_none() {
             // The job's own sidecar comes along, as a copy this job owns.
             if let Some(kind) = source.upload.sidecar.as_deref() {
@@ -111,11 +116,13 @@ pub async fn replan(
             sidecar: sidecar.zip(received.sidecar_sha256.clone()),
             meta: &options.meta,
             callback_url: callback_url.as_deref(),
+            georeference: received.georeference.as_ref(),
         }
         .hash(),
     });
     let mut upload = source.upload.clone();
     upload.sidecar = sidecar.map(str::to_string);
+    upload.georeference = received.georeference;
     let job = NewJob {
         id,
         tenant,

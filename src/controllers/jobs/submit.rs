@@ -1,6 +1,7 @@
 //! What creating a job and re-planning one share: the query's options (parameters, metadata,
 //! callback), the `Idempotency-Key`, and recording the job.
 
+use asbuilt_plan::georef::Georeference;
 use asbuilt_plan::Params;
 use axum::http::header::LOCATION;
 use axum::http::{HeaderMap, HeaderName, HeaderValue, StatusCode};
@@ -34,7 +35,19 @@ pub struct Options {
     pub meta: JobMeta,
     /// `callback_url` as given; checked by [`callback`].
     pub callback_url: Option<String>,
+    /// The georeference's fields given in the query (`crs`, `anchor`, ...); checked by
+    /// [`georeference`].
+    pub georeference: Option<Georeference>,
 }
+
+/// The query's georeference fields, in the API's names.
+pub const GEOREF_FIELDS: [&str; 5] = [
+    "crs",
+    "anchor",
+    "anchor_at",
+    "north_rotation",
+    "height_datum",
+];
 
 impl Options {
     /// Sorts the query's pairs into options; parameters are checked by name, value and range.
@@ -56,6 +69,13 @@ impl Options {
                     }
                     o.callback_url = Some(value);
                 }
+                field if GEOREF_FIELDS.contains(&field) => {
+                    set_georef_field(
+                        o.georeference.get_or_insert_with(Default::default),
+                        field,
+                        &value,
+                    )?;
+                }
                 _ => {
                     Params::check_override(&format!("{key}={value}"))
                         .map_err(|e| super::create::params_error(&e, Some(key.as_str())))?;
@@ -65,6 +85,78 @@ impl Options {
         }
         Ok(o)
     }
+}
+
+/// Sets one georeference field from its query text: numbers comma-separated for `anchor`
+/// (`lon,lat,height`) and `anchor_at` (`x,y,z`).
+fn set_georef_field(g: &mut Georeference, field: &str, value: &str) -> Result<(), ApiError> {
+    let once = |given: bool| match given {
+        true => Err(ApiError::param(field, format!("give one `{field}`"))),
+        false => Ok(()),
+    };
+    let triple = |what: &str| -> Result<[f64; 3], ApiError> {
+        let nums: Vec<f64> = value
+            .split(',')
+            .map(|s| s.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| ApiError::param(field, format!("three numbers: {what}")))?;
+        <[f64; 3]>::try_from(nums)
+            .map_err(|_| ApiError::param(field, format!("three numbers: {what}")))
+    };
+    match field {
+        "crs" => {
+            once(g.crs.is_some())?;
+            g.crs = Some(value.to_string());
+        }
+        "anchor" => {
+            once(g.anchor.is_some())?;
+            g.anchor = Some(triple(
+                "longitude,latitude,height (degrees, degrees, metres)",
+            )?);
+        }
+        "anchor_at" => {
+            once(g.anchor_at.is_some())?;
+            g.anchor_at = Some(triple("x,y,z in the scan's metres")?);
+        }
+        "north_rotation" => {
+            once(g.north_rotation.is_some())?;
+            let deg = value.trim().parse::<f64>().map_err(|_| {
+                ApiError::param(
+                    field,
+                    "degrees clockwise from true north to the local +y axis",
+                )
+            })?;
+            g.north_rotation = Some(deg);
+        }
+        _ => {
+            once(g.height_datum.is_some())?;
+            g.height_datum = Some(value.to_string());
+        }
+    }
+    Ok(())
+}
+
+/// The job's georeference: from the query or a `georeference` part (not both), checked; a
+/// field at fault is named (`422 invalid_parameter`).
+pub fn georeference(
+    query: Option<Georeference>,
+    part: Option<Georeference>,
+) -> Result<Option<Georeference>, ApiError> {
+    let g = match (query, part) {
+        (Some(_), Some(_)) => {
+            return Err(ApiError::param(
+                "georeference",
+                "give the georeference in the query (crs, anchor, ...) or as a `georeference` \
+                 part, not both",
+            ))
+        }
+        (g, None) | (None, g) => g,
+    };
+    if let Some(g) = &g {
+        g.check()
+            .map_err(|e| ApiError::param(e.field, format!("georeference: {}", e.message)))?;
+    }
+    Ok(g)
 }
 
 /// Keeps a display name: the last path segment, printable, at most 200 characters.
@@ -156,11 +248,12 @@ pub struct Fingerprint<'a> {
     pub sidecar: Option<(&'a str, String)>,
     pub meta: &'a JobMeta,
     pub callback_url: Option<&'a str>,
+    pub georeference: Option<&'a Georeference>,
 }
 
 impl Fingerprint<'_> {
     pub fn hash(&self) -> String {
-        let doc = serde_json::json!({
+        let mut doc = serde_json::json!({
             "params": self.params.to_json(),
             "cloud": self.cloud,
             "sidecar": self.sidecar,
@@ -168,6 +261,10 @@ impl Fingerprint<'_> {
             "tags": self.meta.tags,
             "callback_url": self.callback_url,
         });
+        // Only when given, so the hashes of requests without one stay as they were.
+        if let Some(g) = self.georeference {
+            doc["georeference"] = serde_json::json!(g);
+        }
         Sha256::digest(doc.to_string().as_bytes())
             .iter()
             .map(|b| format!("{b:02x}"))
@@ -246,7 +343,11 @@ pub async fn record(
 }
 
 /// The answer to a retry: the first job, or a refusal when the request differs.
-fn replay(state: &AppState, first: Job, key: Option<&Idempotency>) -> Result<Response, ApiError> {
+pub fn replay(
+    state: &AppState,
+    first: Job,
+    key: Option<&Idempotency>,
+) -> Result<Response, ApiError> {
     let asked = key.map(|k| k.request_hash.as_str());
     let had = first.idempotency.as_ref().map(|k| k.request_hash.as_str());
     if asked != had {

@@ -287,6 +287,7 @@ pub async fn commit(
     let options = Options::parse(pairs)?;
     let key = submit::idempotency_key(&headers)?;
     let callback_url = submit::callback(&state, &tenant, options.callback_url.clone()).await?;
+    let georeference = submit::georeference(options.georeference.clone(), None)?;
     let prior = submit::prior(&state, &tenant, key.as_deref()).await?;
     let cap = state.config.max_queued;
     if prior.is_none() && cap > 0 && state.store.queued_count(&tenant).await? >= cap as u64 {
@@ -333,6 +334,7 @@ pub async fn commit(
             sidecar: None,
             meta: &options.meta,
             callback_url: callback_url.as_deref(),
+            georeference: georeference.as_ref(),
         }
         .hash(),
     });
@@ -346,6 +348,7 @@ pub async fn commit(
             sha256: stored.sha256,
             format: format.to_string(),
             sidecar: None,
+            georeference,
         },
         max_attempts: state.config.max_attempts,
         meta: options.meta,
@@ -370,11 +373,16 @@ pub async fn expire(state: &AppState) -> anyhow::Result<usize> {
     let now = now_ms();
     let mut removed = 0;
     for (key, _) in state.blobs.list(keys::UPLOADS).await? {
-        let Some(raw) = key
-            .strip_prefix("uploads/")
-            .and_then(|k| k.strip_suffix("/session.json"))
-        else {
+        let Some(raw) = key.strip_prefix("uploads/") else {
             continue;
+        };
+        let (raw, direct) = match (
+            raw.strip_suffix("/session.json"),
+            raw.strip_suffix("/direct.json"),
+        ) {
+            (Some(raw), _) => (raw, false),
+            (_, Some(raw)) => (raw, true),
+            _ => continue,
         };
         let Ok(id) = raw.parse::<JobId>() else {
             continue;
@@ -389,6 +397,10 @@ pub async fn expire(state: &AppState) -> anyhow::Result<usize> {
                 Ok(v)
             })
             .await?;
+        if direct {
+            removed += usize::from(super::direct::expire_one(state, id, &bytes, now).await);
+            continue;
+        }
         let expired =
             serde_json::from_slice::<Session>(&bytes).map_or(true, |s| s.expires_ms <= now);
         if expired {

@@ -393,6 +393,7 @@ mod tests {
         FloorPlan {
             origin,
             crs: None,
+            georeference: None,
             input: Default::default(),
             parameters: serde_json::Value::Null,
             timings_ms: Vec::new(),

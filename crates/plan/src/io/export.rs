@@ -67,7 +67,7 @@ fn rotate(q: [f64; 4], v: [f64; 3], inverse: bool) -> [f64; 3] {
 }
 
 /// Writes E57: one Data3D per scan slot, points in scanner-local coordinates, the pose in the
-/// file. Without static poses the whole cloud is one scan with the identity pose.
+/// file, the CRS (if any) as coordinate metadata. Without static poses the whole cloud is one scan with the identity pose.
 /// Coordinates are doubles, so applying the pose on reading gives back the very same `f32`
 /// points (single precision would move them by rounding).
 pub fn write_e57(path: &Path, cloud: &PointCloud) -> Result<(), ExportError> {
@@ -82,6 +82,8 @@ pub fn write_e57(path: &Path, cloud: &PointCloud) -> Result<(), ExportError> {
         }],
     };
     let mut writer = e57::E57Writer::from_file(path, "asbuilt-export").map_err(e)?;
+    // The cloud's CRS travels as the file's coordinateMetadata, where E57 readers look for it.
+    writer.set_coordinate_metadata(cloud.crs.clone());
     let prototype = vec![
         e57::Record::CARTESIAN_X_F64,
         e57::Record::CARTESIAN_Y_F64,

@@ -35,12 +35,14 @@ pub fn to_geojson(plan: &FloorPlan) -> Value {
         .iter()
         .map(|(name, ms)| (name.clone(), json!(ms)))
         .collect();
+    let placement = plan.placement();
     json!({
         "type": "FeatureCollection",
         "floorplan": {
             "version": VERSION,
             "units": "m",
-            "crs": plan.crs,
+            "crs": placement.as_ref().and_then(|(g, _)| g.source_crs()),
+            "georeference": placement.map(|(g, source)| georeference(&g, source)),
             "input": {
                 "points": plan.input.points,
                 "format": plan.input.format,
@@ -53,6 +55,13 @@ pub fn to_geojson(plan: &FloorPlan) -> Value {
         },
         "features": features,
     })
+}
+
+/// `floorplan.georeference`: the fields that placed the plan, and who gave them.
+fn georeference(g: &crate::georef::Georeference, source: crate::plan::GeorefSource) -> Value {
+    let mut v = serde_json::to_value(g).unwrap_or_else(|_| json!({}));
+    v["source"] = json!(source);
+    v
 }
 
 /// The GeoJSON document as compact text with a trailing newline.
@@ -380,6 +389,7 @@ pub(crate) mod tests {
         FloorPlan {
             origin,
             crs: Some("EPSG:25832".into()),
+            georeference: None,
             input: InputSummary {
                 points: 1234,
                 format: "ply".into(),

@@ -2,8 +2,10 @@
 //!
 //! `plan.geojson` keeps the scan's frame (contract §1), which a GIS reader takes for degrees when
 //! it is in fact metres. This copy transforms every position from the CRS the scan declared
-//! (`FloorPlan::crs`: `EPSG:n` or WKT) with proj4rs, a pure-Rust port of PROJ.4, so the image
-//! needs no C library. EPSG codes come from the crs-definitions table, WKT goes through proj4wkt.
+//! (`FloorPlan::crs`: `EPSG:n` or WKT), or from the caller's georeference (`crate::georef`: a
+//! CRS, or a local frame as a Local Orthographic PROJ string), with proj4rs, a pure-Rust port of
+//! PROJ.4, so the image needs no C library. EPSG codes come from the crs-definitions table, WKT
+//! goes through proj4wkt.
 //! Without a CRS, or with one proj4rs cannot use, the copy has no features and says why.
 
 use proj4rs::proj::Proj;
@@ -45,10 +47,14 @@ pub struct ToWgs84 {
 }
 
 impl ToWgs84 {
-    /// The transformation from `crs`: `EPSG:n` (any case) or a WKT string.
+    /// The transformation from `crs`: `EPSG:n` (any case), a WKT string, or a PROJ string
+    /// (`+proj=...`, as `georef` writes a local frame).
     pub fn new(crs: &str) -> Result<Self, Wgs84Error> {
         let crs = crs.trim();
         let from = match crs.get(..5) {
+            _ if crs.starts_with("+proj=") => {
+                Proj::from_proj_string(crs).map_err(|e| Wgs84Error::Crs(e.to_string()))?
+            }
             Some(p) if p.eq_ignore_ascii_case("EPSG:") => {
                 let code = &crs[5..];
                 let n: u16 = code

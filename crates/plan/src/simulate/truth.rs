@@ -209,6 +209,7 @@ impl Truth {
         FloorPlan {
             origin: self.origin,
             crs: None,
+            georeference: None,
             input: InputSummary {
                 points: 0,
                 format: "truth".into(),
