@@ -261,3 +261,85 @@ fn a_millimetre_cloud_is_refused_with_the_scale_to_use() {
     assert!(!text.contains("units warning"), "{text}");
     assert!(text.contains("size: 4.000 x 3.000 x 2.700 m"), "{text}");
 }
+
+/// `plan --anchor ... --north-rotation ... --wgs84 FILE`: the plan declares the local frame
+/// and its WGS84 copy is placed by it; `--crs` replaces the scan's; bad ones fail in one line
+/// naming the flag, before the cloud is read.
+#[test]
+fn a_georeference_given_on_the_command_line_places_the_plan() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path().to_str().unwrap();
+    let out = asbuilt(&[
+        "simulate",
+        "--building",
+        "square_room",
+        "--points",
+        "20000",
+        "--seed",
+        "4",
+        "--out",
+        d,
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let cloud = tmp.path().join("cloud.ply");
+    let poses = tmp.path().join("poses.json");
+    let (geojson, wgs84) = (
+        tmp.path().join("p.geojson"),
+        tmp.path().join("p.wgs84.geojson"),
+    );
+    let out = asbuilt(&[
+        "plan",
+        cloud.to_str().unwrap(),
+        "--poses",
+        poses.to_str().unwrap(),
+        "--anchor",
+        "-122.4194,37.7749,15",
+        "--north-rotation",
+        "-90",
+        "--height-datum",
+        "EPSG:5703",
+        "-o",
+        geojson.to_str().unwrap(),
+        "--wgs84",
+        wgs84.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let read = |p: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let (plan, copy) = (read(&geojson), read(&wgs84));
+    let g = &plan["floorplan"]["georeference"];
+    assert_eq!(g["anchor"], serde_json::json!([-122.4194, 37.7749, 15.0]));
+    assert_eq!(g["north_rotation"], -90.0);
+    assert_eq!(g["height_datum"], "EPSG:5703");
+    assert_eq!(g["source"], "given");
+    assert_eq!(
+        copy["floorplan"]["georeferenced"], true,
+        "{}",
+        copy["floorplan"]
+    );
+    // +y points west: a position's local y is metres west of the anchor, x metres north.
+    let local = &plan["features"][0]["geometry"]["coordinates"][0][0];
+    let world = &copy["features"][0]["geometry"]["coordinates"][0][0];
+    let (x, y) = (local[0].as_f64().unwrap(), local[1].as_f64().unwrap());
+    let (lon, lat) = (world[0].as_f64().unwrap(), world[1].as_f64().unwrap());
+    let east = (lon + 122.4194).to_radians() * 6_378_137.0 * 37.7749f64.to_radians().cos();
+    let north = (lat - 37.7749).to_radians() * 6_356_752.0;
+    assert!(
+        (east + y).abs() < 0.05 && (north - x).abs() < 0.05,
+        "({x}, {y}) → {east} E, {north} N"
+    );
+
+    let input = cloud.to_str().unwrap();
+    let line = assert_one_line_failure(&asbuilt(&["plan", input, "--crs", "EPSG:4326"]));
+    assert!(
+        line.contains("--crs") && line.contains("geographic"),
+        "{line}"
+    );
+    let line = assert_one_line_failure(&asbuilt(&["plan", input, "--anchor", "8,95,0"]));
+    assert!(line.contains("--anchor"), "{line}");
+    let out = asbuilt(&["plan", input, "--north-rotation", "3"]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("--anchor"), "{}", stderr(&out));
+}
