@@ -45,6 +45,7 @@ pub mod simulate;
 pub mod smoothing;
 pub mod stories;
 pub mod streaming;
+pub mod underlay;
 pub mod validity;
 pub mod viewpoints;
 

@@ -250,6 +250,7 @@ fn story_plan(s: &TruthStory) -> StoryPlan {
             .collect(),
         samples: Vec::new(),
         spaces: truth_spaces(s),
+        underlay: None,
     }
 }
 
