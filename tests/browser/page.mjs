@@ -58,7 +58,8 @@ async function open({ path, ...opts } = {}) {
   const ctx = await browser.newContext({ viewport: { width: 1280, height: 900 }, acceptDownloads: true, ...opts });
   const page = await ctx.newPage();
   const external = [], errors = [];
-  page.on("request", (r) => { if (!r.url().startsWith(base)) external.push(r.url()); });
+  // The page's own blob URLs (the underlay image, downloads) are local too.
+  page.on("request", (r) => { if (!r.url().startsWith(base) && !r.url().startsWith("blob:" + base)) external.push(r.url()); });
   page.on("pageerror", (e) => errors.push(String(e)));
   page.on("dialog", (d) => d.accept());
   page.checkClean = async () => {
@@ -256,7 +257,7 @@ try {
     await page.evaluate((j) => show({ ...j, status: "running", stage: "read", progress: 0 }), j);
     await until(page, () => $("jobtext").textContent.includes("of 20.0 MB"));
     seen.reading = { text: await page.textContent("#jobtext"), width: await page.evaluate(() => $("jobbar").style.width), busy: await page.evaluate(() => $("jobbarwrap").classList.contains("busy")) };
-    await check(seen.reading.text.includes("5.0 MB of 20.0 MB") && seen.reading.width === "25.0%" && !seen.reading.busy, "reading: " + JSON.stringify(seen.reading));
+    await check(seen.reading.text.includes("5.0 MB of 20.0 MB") && seen.reading.width === "25%" && !seen.reading.busy, "reading: " + JSON.stringify(seen.reading));
     await page.unroute(/\/events$/);
     await page.route(/\/events$/, (r) => r.fulfill({ contentType: "text/event-stream", body: [ev({ stage: "samples", progress: 0.5, story: { number: 3, count: 4 } })].join("") }));
     await page.evaluate((j) => show({ ...j, status: "running", stage: "read", progress: 0 }), j);
@@ -305,7 +306,8 @@ try {
     await page.unroute(/\/v1\/jobs\/[^/]+\/plan\.geojson$/);
     await page.route(/\/v1\/jobs\/[^/]+\/plan\.geojson$/, (r) => r.fulfill({ contentType: "application/geo+json", body: JSON.stringify(estimated) }));
     await page.evaluate(async () => show(await (await api("/v1/jobs/" + current.id)).json()));
-    await page.waitForSelector("#plan[data-drawn=true] polyline.scanpath.estimated");
+    // Attached, not visible: a straight horizontal line has no height.
+    await page.waitForSelector("#plan[data-drawn=true] polyline.scanpath.estimated", { state: "attached" });
     seen.dashed = await page.getAttribute("#plan polyline.scanpath.estimated", "stroke-dasharray");
     seen.pathLegendEst = await page.textContent("#pathlegend");
     await check(seen.dashed === "6 4" && seen.pathLegendEst.includes("estimated"), "estimated path: " + seen.dashed + " / " + seen.pathLegendEst);
@@ -340,7 +342,10 @@ try {
     // Pixels as the browser decodes them: a wall dark and opaque, the floor pale, outside clear.
     seen.pixels = await page.evaluate(async () => {
       const img = document.querySelector("#g-underlay image");
-      const bitmap = await createImageBitmap(await (await fetch(img.getAttribute("href"))).blob());
+      // The CSP lets images, not fetch, read blob URLs.
+      const bitmap = new Image();
+      bitmap.src = img.getAttribute("href");
+      await bitmap.decode();
       const c = document.createElement("canvas"); c.width = bitmap.width; c.height = bitmap.height;
       const g = c.getContext("2d"); g.drawImage(bitmap, 0, 0);
       const at = (i, j) => [...g.getImageData(i, bitmap.height - 1 - j, 1, 1).data];

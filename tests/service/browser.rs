@@ -160,7 +160,7 @@ async fn parameters_warnings_notes_and_stages_are_shown() {
     };
     assert_eq!(seen["story"], "story 2 of 3", "{seen}");
     assert_eq!(seen["serverStory"], "story 3 of 4", "{seen}");
-    assert_eq!(seen["reading"]["width"], "25.0%", "{seen}");
+    assert_eq!(seen["reading"]["width"], "25%", "{seen}");
     assert_eq!(seen["sentCell"], 0.05, "{seen}");
 }
 
