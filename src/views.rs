@@ -15,6 +15,10 @@ pub struct JobView {
     pub status: JobStatus,
     pub stage: Option<String>,
     pub progress: f64,
+    /// While running: bytes of the cloud read, of its size (`{bytes, total}`); null otherwise.
+    pub read: Option<serde_json::Value>,
+    /// While running: the story whose stages run, from 1, of how many (`{number, count}`).
+    pub story: Option<serde_json::Value>,
     pub created_at: String,
     pub started_at: Option<String>,
     pub finished_at: Option<String>,
@@ -72,11 +76,21 @@ impl JobView {
                 .collect(),
             false => BTreeMap::new(),
         };
+        let detail = |key: &str| {
+            let running = job.status == JobStatus::Running;
+            job.progress_detail
+                .as_ref()
+                .and_then(|d| d.get(key))
+                .filter(|v| running && !v.is_null())
+                .cloned()
+        };
         JobView {
             id: job.id.to_string(),
             status: job.status,
             stage: job.stage.clone(),
             progress: job.progress,
+            read: detail("read"),
+            story: detail("story"),
             created_at: timestamp(job.created_at),
             started_at: job.started_at.map(timestamp),
             finished_at: job.finished_at.map(timestamp),

@@ -45,6 +45,9 @@ pub struct PlanArgs {
     /// Include each story's wall samples in the outputs.
     #[arg(long)]
     pub emit_samples: bool,
+    /// Draw each story's points at mid-height (the underlay) under the SVG plan.
+    #[arg(long)]
+    pub svg_underlay: bool,
     /// No progress bar, timings or notes on standard error.
     #[arg(short, long)]
     pub quiet: bool,
@@ -316,6 +319,9 @@ fn params(args: &PlanArgs) -> anyhow::Result<Params> {
     if args.emit_samples {
         params.emit_samples = true;
     }
+    if args.svg_underlay {
+        params.svg_underlay = true;
+    }
     params.check()?;
     Ok(params)
 }
@@ -480,6 +486,7 @@ mod tests {
                 }],
                 samples: vec![],
                 spaces: Default::default(),
+                underlay: None,
             }],
             notes: vec![],
         }

@@ -163,6 +163,8 @@ pub struct Job {
     pub status: JobStatus,
     pub stage: Option<String>,
     pub progress: f64,
+    /// While running: the bytes read and the story running, as the last heartbeat recorded them.
+    pub progress_detail: Option<serde_json::Value>,
     /// The caller's parameter overrides (a JSON object, possibly empty).
     pub params: serde_json::Value,
     pub upload: UploadInfo,
@@ -261,6 +263,8 @@ pub struct Beat {
     pub progress: f64,
     /// `floorplan.input`, once known.
     pub input: Option<serde_json::Value>,
+    /// The bytes read and the story running (`{"read": .., "story": ..}`), once reported.
+    pub detail: Option<serde_json::Value>,
 }
 
 /// The answer to a heartbeat.

@@ -43,6 +43,11 @@ const MIGRATIONS: &[(i64, &str, &str)] = &[
         "job api",
         include_str!("../../migrations/postgres/0003_job_api.sql"),
     ),
+    (
+        4,
+        "progress detail",
+        include_str!("../../migrations/postgres/0004_progress_detail.sql"),
+    ),
 ];
 
 fn migrations() -> Vec<Migration> {
@@ -70,7 +75,8 @@ impl<'s> MigrationSource<'s> for Embedded {
     }
 }
 
-const COLUMNS: &str = "id::text AS id, tenant, status, stage, progress, params::text AS params, \
+const COLUMNS: &str = "id::text AS id, tenant, status, stage, progress, \
+     progress_detail::text AS progress_detail, params::text AS params, \
      upload::text AS upload, input::text AS input, timings::text AS timings, error_code, \
      error_message, attempts, max_attempts, created_at, started_at, finished_at, updated_at, \
      external_ref, tags::text AS tags, idempotency_key, request_hash, \
@@ -168,6 +174,7 @@ impl PgJobStore {
             status: JobStatus::from_str(&status).map_err(StoreError)?,
             stage: row.try_get("stage")?,
             progress: row.try_get("progress")?,
+            progress_detail: json("progress_detail")?,
             params: json("params")?.unwrap_or_default(),
             upload: serde_json::from_str(&upload)
                 .map_err(|e| StoreError(format!("column upload: {e}")))?,
@@ -506,7 +513,7 @@ impl JobStore for PgJobStore {
         let now = now_ms();
         let done = sqlx::query(
             "UPDATE jobs SET lease_until = $1, stage = $2, progress = $3, \
-             input = COALESCE($4::jsonb, input), updated_at = $5 \
+             input = COALESCE($4::jsonb, input), updated_at = $5, progress_detail = $8::jsonb \
              WHERE id = $6::uuid AND status = 'running' AND lease_owner = $7",
         )
         .bind(now + lease_ms)
@@ -516,6 +523,7 @@ impl JobStore for PgJobStore {
         .bind(now)
         .bind(id.to_string())
         .bind(owner)
+        .bind(beat.detail.as_ref().map(|v| v.to_string()))
         .execute(&self.pool)
         .await?;
         Ok(if done.rows_affected() == 1 {

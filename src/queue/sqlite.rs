@@ -37,6 +37,11 @@ const MIGRATIONS: &[(i64, &str, &str)] = &[
         "job api",
         include_str!("../../migrations/sqlite/0003_job_api.sql"),
     ),
+    (
+        4,
+        "progress detail",
+        include_str!("../../migrations/sqlite/0004_progress_detail.sql"),
+    ),
 ];
 
 /// Hands sqlx the migrations embedded above.
@@ -68,7 +73,8 @@ pub struct SqliteJobStore {
     pool: SqlitePool,
 }
 
-const COLUMNS: &str = "id, tenant, status, stage, progress, params, upload, input, timings, \
+const COLUMNS: &str =
+    "id, tenant, status, stage, progress, progress_detail, params, upload, input, timings, \
      error_code, error_message, attempts, max_attempts, created_at, started_at, finished_at, \
      updated_at, external_ref, tags, idempotency_key, request_hash, input_job, callback_url";
 
@@ -124,6 +130,7 @@ impl SqliteJobStore {
             status: JobStatus::from_str(&status).map_err(StoreError)?,
             stage: row.try_get("stage")?,
             progress: row.try_get("progress")?,
+            progress_detail: json("progress_detail")?,
             params: json("params")?.unwrap_or_default(),
             upload: serde_json::from_str(&upload)
                 .map_err(|e| StoreError(format!("column upload: {e}")))?,
@@ -393,13 +400,14 @@ impl JobStore for SqliteJobStore {
     ) -> Result<Heartbeat, StoreError> {
         let now = now_ms();
         let done = sqlx::query(
-            "UPDATE jobs SET lease_until = ?, stage = ?, progress = ?, \
+            "UPDATE jobs SET lease_until = ?, stage = ?, progress = ?, progress_detail = ?, \
              input = COALESCE(?, input), updated_at = ? \
              WHERE id = ? AND status = 'running' AND lease_owner = ?",
         )
         .bind(now + lease_ms)
         .bind(&beat.stage)
         .bind(beat.progress.clamp(0.0, 1.0))
+        .bind(beat.detail.as_ref().map(|v| v.to_string()))
         .bind(beat.input.as_ref().map(|v| v.to_string()))
         .bind(now)
         .bind(id.to_string())
@@ -743,6 +751,7 @@ mod tests {
             stage: Some("samples".into()),
             progress: 0.5,
             input: None,
+            detail: None,
         }
     }
 

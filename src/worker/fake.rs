@@ -4,7 +4,8 @@
 //! for cancellation every 10 ms), and returns a 4 m × 3 m one-story plan (two rooms, a door, a
 //! window and five walls with thickness) through the real writers (with `spin`, it burns CPU instead of sleeping). A cloud whose text contains `#fail:CODE` fails with CODE; `#panic` panics;
 //! `#hang:SECS` spends SECS seconds in the fit stage without looking at its stop token (a
-//! stage stuck in a call that cannot be interrupted). Each run that completes appends its job
+//! stage stuck in a call that cannot be interrupted); `#stories:N` walks the per-story stages N
+//! times, reporting each story's number (the plan still has one). Each run that completes appends its job
 //! id to the completions log, so tests can count runs.
 
 use std::io::Write;
@@ -16,6 +17,7 @@ use asbuilt_plan::plan::{
     WallModel, Window,
 };
 use asbuilt_plan::progress::{Progress, Stage, STAGES};
+use asbuilt_plan::underlay::Underlay;
 
 use crate::errors::JobCode;
 
@@ -80,6 +82,33 @@ fn room(id: &str, x0: f64, x1: f64, neighbour: &str) -> Room {
 
 /// The fake plan's rooms: a 10 cm wall at x = 2.5 with a door splits the 4 × 3 m floor; a
 /// window lights the west room; exterior walls (30 cm assumed) run round the outside.
+/// Points under the fake plan: its outline dark (walls in the slice), the floor pale, at 10 cm,
+/// reaching 0.5 m beyond the outline on every side.
+fn underlay() -> Underlay {
+    let (nx, ny) = (50, 40);
+    let levels = (0..ny)
+        .flat_map(|j| (0..nx).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            let on_wall = |k: usize, at: usize| k.abs_diff(at) <= 1;
+            let inside = (5..=45).contains(&i) && (5..=35).contains(&j);
+            match inside && (on_wall(i, 5) || on_wall(i, 45) || on_wall(j, 5) || on_wall(j, 35)) {
+                true => 255,
+                false if inside => 1,
+                false => 0,
+            }
+        })
+        .collect();
+    Underlay {
+        origin: [-0.5, -0.5],
+        cell: 0.1,
+        nx,
+        ny,
+        slice_z: [1.0, 1.5],
+        levels,
+        full: 100,
+    }
+}
+
 fn spaces() -> Spaces {
     let some = |id: &str| Some(id.to_string());
     let wall =
@@ -173,9 +202,27 @@ pub fn square_plan(points: u64) -> FloorPlan {
             ],
             samples: vec![],
             spaces: spaces(),
+            underlay: Some(underlay()),
         }],
         notes: vec![],
     }
+}
+
+/// The stages in the order a run of `stories` stories reports them, with the run's fraction and
+/// the story (from 1) of the per-story ones.
+fn walk(stories: usize) -> Vec<(Stage, f64, Option<usize>)> {
+    let per_story = |s: &Stage| s.row().weight > 0.0;
+    let mut out: Vec<_> = stages()
+        .filter(|s| !per_story(s) && *s != Stage::Write)
+        .map(|s| (s, 0.0, None))
+        .collect();
+    for k in 0..stories {
+        for s in stages().filter(per_story) {
+            out.push((s, (k as f64 + s.start()) / stories as f64, Some(k + 1)));
+        }
+    }
+    out.push((Stage::Write, 1.0, None));
+    out
 }
 
 impl Pipeline for FakePipeline {
@@ -205,21 +252,35 @@ impl Pipeline for FakePipeline {
             .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
             .count() as u64;
         check_points(points, input.max_points)?;
-        let hang: Option<f64> = text
-            .split("#hang:")
-            .nth(1)
-            .and_then(|rest| rest.split_whitespace().next())
-            .and_then(|s| s.parse().ok());
-        let mut timings = vec![];
-        let count = stages().count();
-        for (i, stage) in stages().enumerate() {
-            progress.report(stage, i as f64 / count as f64);
+        let directive = |name: &str| -> Option<f64> {
+            text.split(name)
+                .nth(1)
+                .and_then(|rest| rest.split_whitespace().next())
+                .and_then(|s| s.parse().ok())
+        };
+        let hang = directive("#hang:");
+        let stories = directive("#stories:").map_or(1, |n| n.clamp(1.0, 20.0) as usize);
+        // Reading, as the real pipeline reports it: the file's bytes, all read at once.
+        let bytes = text.len() as u64;
+        let mut timings: Vec<(String, u64)> = vec![];
+        for (stage, fraction, story) in walk(stories) {
+            if let Some(k) = story {
+                progress.story(k, stories);
+            }
+            progress.report(stage, fraction);
+            if stage == Stage::Read {
+                progress.read(bytes, bytes);
+            }
             let start = Instant::now();
             if let (Some(secs), Stage::Fitting) = (hang, stage) {
                 std::thread::sleep(Duration::from_secs_f64(secs.clamp(0.0, 3600.0)));
             }
             self.wait(progress)?;
-            timings.push((stage.name().to_string(), start.elapsed().as_millis() as u64));
+            let ms = start.elapsed().as_millis() as u64;
+            match timings.iter_mut().find(|(n, _)| n == stage.name()) {
+                Some((_, t)) => *t += ms,
+                None => timings.push((stage.name().to_string(), ms)),
+            }
         }
         let total = timings.iter().map(|(_, ms)| ms).sum();
         timings.push(("total".into(), total));
@@ -227,6 +288,8 @@ impl Pipeline for FakePipeline {
         plan.timings_ms = timings.clone();
         // Placed as the real pipeline places it, so the WGS84 copy can be followed end to end.
         plan.georeference = input.georeference.clone();
+        // The writers read their options from the plan's parameters, as after a real run.
+        plan.parameters["svg_underlay"] = input.params.svg_underlay.into();
         let results = JobResults::of(&plan)?;
         if let Some(log) = &self.completions {
             let mut f = std::fs::OpenOptions::new()

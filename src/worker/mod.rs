@@ -23,7 +23,7 @@ use crate::errors::JobCode;
 use crate::queue::{Beat, Heartbeat, Job, JobError, JobId, JobOutcome, JobStatus};
 use crate::storage::keys;
 use pipeline::{JobInput, JobResults, Pipeline, PipelineFailure, SidecarKind};
-use progress::{JobProgress, Shared, Stop};
+use progress::{Detail, JobProgress, Shared, Stop};
 
 /// What the workers share.
 pub struct Workers {
@@ -320,7 +320,7 @@ async fn heartbeat(
 ) {
     // Often enough for cancellation to land within a second, and well within the lease.
     let every = Duration::from_millis((lease_ms as u64 / 3).clamp(50, 250));
-    let mut last = (None, -1.0);
+    let mut last = (None, -1.0, Detail::default());
     loop {
         tokio::select! {
             _ = tokio::time::sleep(every) => {}
@@ -333,15 +333,17 @@ async fn heartbeat(
             shared.stop(Stop::TimeLimit);
         }
         let (stage, fraction) = shared.latest();
+        let detail = shared.detail();
         let beat = Beat {
             stage: stage.map(|s| s.name().to_string()),
             progress: fraction,
             input: None,
+            detail: detail.to_json(),
         };
         match state.store.heartbeat(id, &owner, lease_ms, &beat).await {
             Ok(Heartbeat::Held) => {
-                if (stage, fraction) != last {
-                    last = (stage, fraction);
+                if (stage, fraction, detail) != last {
+                    last = (stage, fraction, detail);
                     state.changed(id);
                 }
             }

@@ -22,6 +22,7 @@ pub enum Stop {
 /// State shared by the pipeline thread and the worker.
 pub struct Shared {
     latest: Mutex<(Option<Stage>, f64)>,
+    detail: Mutex<Detail>,
     stop: AtomicU8,
     /// Raised with the first stop reason; the pipeline checks it inside its loops.
     cancel: Cancel,
@@ -31,9 +32,33 @@ impl Default for Shared {
     fn default() -> Self {
         Shared {
             latest: Mutex::default(),
+            detail: Mutex::default(),
             stop: AtomicU8::default(),
             cancel: Cancel::new(),
         }
+    }
+}
+
+/// What a run reports beside its stage and fraction: the bytes of the cloud read, and which
+/// story runs.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Detail {
+    /// Bytes read and the file's size.
+    pub read: Option<(u64, u64)>,
+    /// The story (from 1) and the number of stories.
+    pub story: Option<(usize, usize)>,
+}
+
+impl Detail {
+    /// As stored with the job (`progress_detail`) and shown in its `read` and `story`.
+    pub fn to_json(self) -> Option<serde_json::Value> {
+        if self == Detail::default() {
+            return None;
+        }
+        Some(serde_json::json!({
+            "read": self.read.map(|(bytes, total)| serde_json::json!({"bytes": bytes, "total": total})),
+            "story": self.story.map(|(number, count)| serde_json::json!({"number": number, "count": count})),
+        }))
     }
 }
 
@@ -41,6 +66,11 @@ impl Shared {
     /// The latest stage and fraction reported.
     pub fn latest(&self) -> (Option<Stage>, f64) {
         *self.latest.lock().expect("progress lock")
+    }
+
+    /// The latest bytes read and story reported.
+    pub fn detail(&self) -> Detail {
+        *self.detail.lock().expect("progress lock")
     }
 
     /// Asks the run to stop; the first reason wins.
@@ -73,6 +103,14 @@ impl Progress for JobProgress {
         *self.shared.latest.lock().expect("progress lock") = (Some(stage), fraction);
     }
 
+    fn read(&mut self, bytes: u64, total: u64) {
+        self.shared.detail.lock().expect("progress lock").read = Some((bytes, total));
+    }
+
+    fn story(&mut self, number: usize, count: usize) {
+        self.shared.detail.lock().expect("progress lock").story = Some((number, count));
+    }
+
     /// The shared flag, with the job's deadline: the pipeline stops at the deadline on its own
     /// (the heartbeat also raises the flag then, within a beat).
     fn cancel(&self) -> Cancel {
@@ -95,6 +133,13 @@ mod tests {
         };
         p.report(Stage::Labeling, 0.5);
         assert_eq!(shared.latest(), (Some(Stage::Labeling), 0.5));
+        assert_eq!(shared.detail().to_json(), None);
+        p.read(10, 40);
+        p.story(2, 3);
+        assert_eq!(
+            shared.detail().to_json().unwrap(),
+            serde_json::json!({"read": {"bytes": 10, "total": 40}, "story": {"number": 2, "count": 3}})
+        );
         assert!(!p.cancelled());
         // The token the pipeline took before the stop sees it.
         let taken = p.cancel();

@@ -29,12 +29,17 @@ const RICH = {
   type: "FeatureCollection",
   floorplan: {
     version: 1, units: "m", crs: null,
-    input: { points: 123456, format: "laz", scans: 2, viewpoints: { source: "mixed", rests_on: 0.75, path: null, open_space: [],
+    input: { points: 123456, format: "laz", scans: 2, viewpoints: { source: "mixed", rests_on: 0.75, open_space: [],
+      // A walk along y = 2.5 at scanner height, then up the stairs out of the story (not drawn).
+      path: { source: "given", samples: 6, windows: 0, located: 0, residual_m: null, length_m: 4.5,
+              positions: [[0.5, 2.5, -0.2], [1.5, 2.5, -0.2], [2.5, 2.5, -0.2], [3.5, 2.5, -0.2], [3.5, 2.0, 1.8], [3.5, 1.5, 2.5]] },
       scans: [{ index: 0, source: "given", position: [1, 1.5, 0.2], residual_m: null, support: null, points: 1000 },
               { index: 1, source: "estimated", position: [3, 1.5, 0.2], residual_m: 0.02, support: 0.9, points: 1000 }] } },
     parameters: { samples: { cell_size: 0.05, min_points: null, min_points_derived: [12], point_spacing: 0.012 }, smoothing: { registration_error: null } },
     timings_ms: { read: 1, stories: 1, samples: 1, label: 1, cleanup: 1, fit: 1, total: 6 },
     notes: ["story 0: a hand-written note"],
+    // Where the fake pipeline's `underlay.png` (50 × 40 cells of 10 cm from -0.5, -0.5) lies.
+    underlay: { file: "underlay.png", size: [50, 40], stories: [{ level: 0, pixels: [0, 0, 50, 40], bbox: [-0.5, -0.5, 4.5, 3.5], cell_m: 0.1, slice_z: [-0.5, 0.0], full_count: 100 }] },
   },
   features: [
     { type: "Feature", geometry: { type: "Polygon", coordinates: [[[0, 0], [4, 0], [4, 3], [0, 3], [0, 0]]] }, properties: { kind: "story", level: 0, floor_z: -1.5, ceiling_z: 1.2, area_m2: 12, samples: samples.length } },
@@ -53,7 +58,8 @@ async function open({ path, ...opts } = {}) {
   const ctx = await browser.newContext({ viewport: { width: 1280, height: 900 }, acceptDownloads: true, ...opts });
   const page = await ctx.newPage();
   const external = [], errors = [];
-  page.on("request", (r) => { if (!r.url().startsWith(base)) external.push(r.url()); });
+  // The page's own blob URLs (the underlay image, downloads) are local too.
+  page.on("request", (r) => { if (!r.url().startsWith(base) && !r.url().startsWith("blob:" + base)) external.push(r.url()); });
   page.on("pageerror", (e) => errors.push(String(e)));
   page.on("dialog", (d) => d.accept());
   page.checkClean = async () => {
@@ -245,6 +251,20 @@ try {
     await check(seen.story === "story 2 of 3", "story: " + seen.story);
     await check(seen.runSkipped.join() === "smoothing", "skipped while running: " + seen.runSkipped);
     await page.unroute(/\/events$/);
+    // Reading: the bar follows the bytes read; then the server's story count wins over the guess.
+    const mib = 1048576;
+    await page.route(/\/events$/, (r) => r.fulfill({ contentType: "text/event-stream", body: [ev({ stage: "read", progress: 0, read: { bytes: 5 * mib, total: 20 * mib } })].join("") }));
+    await page.evaluate((j) => show({ ...j, status: "running", stage: "read", progress: 0 }), j);
+    await until(page, () => $("jobtext").textContent.includes("of 20.0 MB"));
+    seen.reading = { text: await page.textContent("#jobtext"), width: await page.evaluate(() => $("jobbar").style.width), busy: await page.evaluate(() => $("jobbarwrap").classList.contains("busy")) };
+    await check(seen.reading.text.includes("5.0 MB of 20.0 MB") && seen.reading.width === "25%" && !seen.reading.busy, "reading: " + JSON.stringify(seen.reading));
+    await page.unroute(/\/events$/);
+    await page.route(/\/events$/, (r) => r.fulfill({ contentType: "text/event-stream", body: [ev({ stage: "samples", progress: 0.5, story: { number: 3, count: 4 } })].join("") }));
+    await page.evaluate((j) => show({ ...j, status: "running", stage: "read", progress: 0 }), j);
+    await until(page, () => $("storyinfo").textContent.length > 0);
+    seen.serverStory = await page.textContent("#storyinfo");
+    await check(seen.serverStory === "story 3 of 4", "the server's story: " + seen.serverStory);
+    await page.unroute(/\/events$/);
     await page.route(/\/events$/, (r) => r.fulfill({ contentType: "text/event-stream", body: ev({ stage: "label", progress: 0.2, status: "failed", error: { code: "labeling_failed", message: "no room" } }) }));
     await page.evaluate((j) => show({ ...j, status: "running", stage: "read", progress: 0 }), j);
     await until(page, () => $("status").textContent === "failed");
@@ -262,7 +282,12 @@ try {
     const page = await open();
     await richPlan(page);
     await uploadAndWait(page, file("room.xyz"));
-    seen.samples = await page.locator("#g-underlay path.samples").count();
+    seen.samples = await page.locator("#g-samples path.samples").count();
+    seen.image = await page.locator("#g-underlay svg.underlay image").count();
+    seen.path = await page.evaluate(() => [...document.querySelectorAll("#plan polyline.scanpath")].map((p) => [p.getAttribute("class"), p.getAttribute("points").split(" ").length, p.getAttribute("stroke-dasharray")]));
+    await check(seen.image === 1, "no image of the points: " + seen.image);
+    // The path within the story (four positions; those up the stairs are left out), solid: given.
+    await check(JSON.stringify(seen.path) === JSON.stringify([["scanpath given", 4, null]]), "scanner path: " + JSON.stringify(seen.path));
     seen.given = await page.locator("#plan circle.viewpoint.given").count();
     seen.estimated = await page.locator("#plan circle.viewpoint.estimated").count();
     seen.rooms = await page.locator("#plan path.room").count();
@@ -271,13 +296,31 @@ try {
     await check(seen.samples === 1 && seen.given === 1 && seen.estimated === 1 && seen.rooms === 2 && seen.doors === 1, "layers: " + JSON.stringify(seen));
     await check(seen.labels.includes("L0-R1 · 6.0 m²"), "room labels: " + seen.labels);
     seen.legend = await page.evaluate(() => [...document.querySelectorAll("#legend span")].filter((s) => !s.hidden).map((s) => s.id).filter(Boolean));
-    await check(["samplelegend", "givenlegend", "estlegend", "roomlegend", "doorlegend"].every((id) => seen.legend.includes(id)) && !seen.legend.includes("arclegend"), "legend: " + seen.legend);
+    await check(["samplelegend", "givenlegend", "estlegend", "roomlegend", "doorlegend", "pointslegend", "pathlegend"].every((id) => seen.legend.includes(id)) && !seen.legend.includes("arclegend"), "legend: " + seen.legend);
+    seen.pathLegend = await page.textContent("#pathlegend");
+    seen.slice = await page.textContent("#pointslegend");
+    await check(seen.pathLegend.includes("given") && seen.slice.includes("1.00–1.50 m above the floor"), "legend text: " + seen.pathLegend + " / " + seen.slice);
+    // An estimated path is dashed, and says so.
+    const estimated = JSON.parse(JSON.stringify(RICH));
+    estimated.floorplan.input.viewpoints.path.source = "estimated";
+    await page.unroute(/\/v1\/jobs\/[^/]+\/plan\.geojson$/);
+    await page.route(/\/v1\/jobs\/[^/]+\/plan\.geojson$/, (r) => r.fulfill({ contentType: "application/geo+json", body: JSON.stringify(estimated) }));
+    await page.evaluate(async () => show(await (await api("/v1/jobs/" + current.id)).json()));
+    // Attached, not visible: a straight horizontal line has no height.
+    await page.waitForSelector("#plan[data-drawn=true] polyline.scanpath.estimated", { state: "attached" });
+    seen.dashed = await page.getAttribute("#plan polyline.scanpath.estimated", "stroke-dasharray");
+    seen.pathLegendEst = await page.textContent("#pathlegend");
+    await check(seen.dashed === "6 4" && seen.pathLegendEst.includes("estimated"), "estimated path: " + seen.dashed + " / " + seen.pathLegendEst);
     await page.fill("#opacity", "30");
     seen.opacity = await page.getAttribute("#g-underlay", "opacity");
     await page.uncheck("#underlay");
     seen.hidden = await page.evaluate(() => getComputedStyle(document.querySelector("#g-underlay")).display);
     await check(seen.opacity === "0.3" && seen.hidden === "none", "underlay toggle: " + seen.opacity + " " + seen.hidden);
     await page.check("#underlay");
+    await page.uncheck("#showsamples");
+    seen.samplesHidden = await page.evaluate(() => getComputedStyle(document.querySelector("#g-samples")).display);
+    await check(seen.samplesHidden === "none", "samples toggle");
+    await page.check("#showsamples");
     await page.uncheck("#showrooms");
     seen.roomsHidden = await page.evaluate(() => getComputedStyle(document.querySelector("#g-rooms")).display);
     await check(seen.roomsHidden === "none", "rooms toggle");
@@ -286,6 +329,48 @@ try {
     seen.download = dl.suggestedFilename();
     await check(/^room-\d{8}-\d{6}\.svg$/.test(seen.download), "download name: " + seen.download);
     await page.screenshot({ path: file("underlay.png") });
+    await page.checkClean();
+  } else if (scenario === "points") {
+    // The server's own plan and image: the points under the plan, decoded by the browser.
+    const page = await open();
+    const id = await uploadAndWait(page, file("room.xyz"));
+    const j = await job(page, id);
+    await check(typeof j.links.underlay === "string" && j.links.underlay.endsWith("/underlay.png"), "no underlay link: " + JSON.stringify(j.links));
+    // The fake image spans -0.5..4.5 × -0.5..3.5 m: its north-west corner where the plan draws that point.
+    seen.box = await page.evaluate(() => { const s = document.querySelector("#g-underlay svg.underlay"); return s && { at: ["x", "y", "width", "height"].map((k) => Number(s.getAttribute(k))), want: tx([-0.5, 3.5]), viewBox: s.getAttribute("viewBox") }; });
+    await check(seen.box && Math.abs(seen.box.at[0] - seen.box.want[0]) < 1e-9 && Math.abs(seen.box.at[1] - seen.box.want[1]) < 1e-9 && seen.box.at[2] === 5 && seen.box.at[3] === 4 && seen.box.viewBox === "0 0 50 40", "image placed at " + JSON.stringify(seen.box));
+    // Pixels as the browser decodes them: a wall dark and opaque, the floor pale, outside clear.
+    seen.pixels = await page.evaluate(async () => {
+      const img = document.querySelector("#g-underlay image");
+      // The CSP lets images, not fetch, read blob URLs.
+      const bitmap = new Image();
+      bitmap.src = img.getAttribute("href");
+      await bitmap.decode();
+      const c = document.createElement("canvas"); c.width = bitmap.width; c.height = bitmap.height;
+      const g = c.getContext("2d"); g.drawImage(bitmap, 0, 0);
+      const at = (i, j) => [...g.getImageData(i, bitmap.height - 1 - j, 1, 1).data];
+      return { size: [bitmap.width, bitmap.height], wall: at(5, 20), floor: at(20, 20), outside: at(1, 1) };
+    });
+    await check(seen.pixels.size.join() === "50,40" && seen.pixels.wall[3] === 255 && seen.pixels.wall[0] < 40 && seen.pixels.floor[3] > 0 && seen.pixels.floor[3] < 100 && seen.pixels.outside[3] === 0, "pixels: " + JSON.stringify(seen.pixels));
+    // Under the walls, over the floor: the group order says so.
+    seen.order = await page.evaluate(() => [...$("plan").children].map((g) => g.id));
+    await check(seen.order.indexOf("g-area") < seen.order.indexOf("g-underlay") && seen.order.indexOf("g-underlay") < seen.order.indexOf("g-walls"), "layer order: " + seen.order);
+    await page.fill("#opacity", "25");
+    seen.opacity = await page.getAttribute("#g-underlay", "opacity");
+    await page.uncheck("#underlay");
+    seen.hidden = await page.evaluate(() => getComputedStyle(document.querySelector("#g-underlay")).display);
+    seen.opacityOff = await page.isDisabled("#opacity");
+    await check(seen.opacity === "0.25" && seen.hidden === "none" && seen.opacityOff, "toggle and opacity: " + JSON.stringify([seen.opacity, seen.hidden, seen.opacityOff]));
+    await page.check("#underlay");
+    // The page plans with the points in the SVG: its download carries them as a layer.
+    await check(j.parameters.svg_underlay === true, "svg_underlay not sent: " + JSON.stringify(j.parameters));
+    const [dl] = await Promise.all([page.waitForEvent("download"), page.click("#downloads button[data-name=svg]")]);
+    const svg = readFileSync(await dl.path(), "utf8");
+    seen.svgLayer = /<g class="underlay" id="underlay-0"[^>]*><title>[^<]*<\/title><image [^>]*href="data:image\/png;base64,[A-Za-z0-9+/=]+"/.test(svg);
+    await check(seen.svgLayer, "no underlay layer in the SVG");
+    seen.axe = await axe(page);
+    await check(seen.axe.length === 0, "axe violations: " + seen.axe.join("; "));
+    await page.screenshot({ path: file("points.png") });
     await page.checkClean();
   } else if (scenario === "measure") {
     // Cursor coordinates, a measured distance, a wall's length on hover.

@@ -14,7 +14,8 @@ const fail = async (why) => {
 try {
   const page = await browser.newPage({ viewport: { width: 1280, height: 860 } });
   const external = [];
-  page.on("request", (r) => { if (!r.url().startsWith(base)) external.push(r.url()); });
+  // The page's own blob URLs (the underlay image, downloads) are local too.
+  page.on("request", (r) => { if (!r.url().startsWith(base) && !r.url().startsWith("blob:" + base)) external.push(r.url()); });
   const errors = [];
   page.on("pageerror", (e) => errors.push(String(e)));
   await page.goto(base + "/");

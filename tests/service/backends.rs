@@ -156,6 +156,7 @@ fn beat(stage: &str, progress: f64) -> Beat {
         stage: Some(stage.into()),
         progress,
         input: None,
+        detail: Some(serde_json::json!({"read": null, "story": {"number": 2, "count": 3}})),
     }
 }
 
@@ -263,6 +264,11 @@ async fn claim_heartbeat_complete(b: &Backend) {
     let got = s.get(Some("a"), job.id).await.unwrap().unwrap();
     // Progress is clamped to 0..1.
     assert_eq!((got.stage.as_deref(), got.progress), (Some("samples"), 1.0));
+    // The story running is kept with it.
+    assert_eq!(
+        got.progress_detail.unwrap()["story"],
+        serde_json::json!({"number": 2, "count": 3})
+    );
     assert!(!s.complete(job.id, "w2", &outcome(9)).await.unwrap());
     assert!(s.complete(job.id, "w1", &outcome(9)).await.unwrap());
     // A second completion of the same run is refused: the lease is gone.

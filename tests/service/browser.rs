@@ -124,7 +124,7 @@ async fn scenario(name: &str, jobs_before: usize) -> Option<Value> {
     );
     let seen: Value = serde_json::from_str(stdout.lines().last().unwrap_or_default()).unwrap();
     assert_eq!(seen["scenario"], name);
-    for shot in ["underlay.png", "phone.png", "replan.png"] {
+    for shot in ["underlay.png", "points.png", "phone.png", "replan.png"] {
         let p = s.dir.path().join(shot);
         if p.exists() {
             let kept = std::env::temp_dir().join(format!("asbuilt-page-{shot}"));
@@ -159,6 +159,8 @@ async fn parameters_warnings_notes_and_stages_are_shown() {
         return;
     };
     assert_eq!(seen["story"], "story 2 of 3", "{seen}");
+    assert_eq!(seen["serverStory"], "story 3 of 4", "{seen}");
+    assert_eq!(seen["reading"]["width"], "25%", "{seen}");
     assert_eq!(seen["sentCell"], 0.05, "{seen}");
 }
 
@@ -169,6 +171,21 @@ async fn the_underlay_scanners_and_rooms_are_drawn_and_toggled() {
     };
     assert_eq!(seen["rooms"], 2, "{seen}");
     assert_eq!(seen["hidden"], "none", "{seen}");
+    assert_eq!(seen["image"], 1, "{seen}");
+    assert_eq!(seen["dashed"], "6 4", "{seen}");
+}
+
+/// The server's own image of the points, placed by the GeoJSON's `floorplan.underlay`, decoded
+/// by Chromium, toggled, faded, and carried into the SVG download.
+#[tokio::test(flavor = "multi_thread")]
+async fn the_points_lie_under_the_plan_and_go_into_the_svg() {
+    let Some(seen) = scenario("points", 0).await else {
+        return;
+    };
+    assert_eq!(seen["pixels"]["size"], serde_json::json!([50, 40]), "{seen}");
+    assert_eq!(seen["pixels"]["wall"][3], 255, "{seen}");
+    assert_eq!(seen["svgLayer"], true, "{seen}");
+    assert_eq!(seen["axe"], serde_json::json!([]), "{seen}");
 }
 
 #[tokio::test(flavor = "multi_thread")]

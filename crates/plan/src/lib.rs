@@ -46,6 +46,7 @@ pub mod simulate;
 pub mod smoothing;
 pub mod stories;
 pub mod streaming;
+pub mod underlay;
 pub mod validity;
 pub mod viewpoints;
 

@@ -33,6 +33,8 @@ pub struct Params {
     pub rooms: RoomsParams,
     /// Include each story's wall samples as a `wall_samples` feature.
     pub emit_samples: bool,
+    /// Draw each story's points at mid-height (the underlay) under the SVG plan.
+    pub svg_underlay: bool,
 }
 
 /// The values a numeric parameter accepts, both ends included. Each stage lists its own

@@ -307,6 +307,7 @@ pub(crate) fn plan_stories(
     let mut evidence = (0.0, 0.0);
     for (i, story) in stories.iter().enumerate() {
         let at = |k: f64| (i as f64 + k) / stories.len() as f64;
+        progress.story(i + 1, stories.len());
         // What was assumed about the floor or ceiling goes with the story's plan or failure.
         let assumed = story.assumptions(cloud.origin[2]);
         match plan_story(
@@ -470,6 +471,7 @@ fn plan_story(
         walls: fitted.walls,
         samples: samples.samples.iter().map(|s| s.pos).collect(),
         spaces: Default::default(),
+        underlay: samples.underlay.take(),
     };
     step(Stage::Rooms)?;
     // A story whose rooms cannot be found keeps its plan, with a note.

@@ -67,6 +67,10 @@ pub struct StoryPlan {
     pub samples: Vec<P2>,
     /// The story's rooms, doors, windows and walls with thickness (empty when not found).
     pub spaces: Spaces,
+    /// The story's points at mid-height, drawn under the plan (`underlay.png`); `None` for
+    /// plans not made from points.
+    #[serde(skip)]
+    pub underlay: Option<crate::underlay::Underlay>,
 }
 
 /// A story divided into rooms: what facility management works with. Every position is in the

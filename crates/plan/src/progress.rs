@@ -132,6 +132,14 @@ pub trait Progress: Send {
     /// Called as the run enters `stage` and as it goes on; `fraction` never decreases.
     fn report(&mut self, stage: Stage, fraction: f64);
 
+    /// Called while the cloud is read (stage `read`, which takes no share of `fraction`):
+    /// `bytes` of the file's `total` read so far. The default ignores it.
+    fn read(&mut self, _bytes: u64, _total: u64) {}
+
+    /// Called as each story's stages begin: story `number` (from 1) of `count`. The default
+    /// ignores it.
+    fn story(&mut self, _number: usize, _count: usize) {}
+
     /// The token the run checks inside every long loop; the default never stops. Asked once
     /// per run, so it must be a clone of what the caller raises.
     fn cancel(&self) -> Cancel {

@@ -3,11 +3,12 @@
 //! else, so the point limit, the sidecar's size cap and scale, and the units check hold for all.
 
 use std::path::Path;
-use std::time::Instant;
+use std::sync::mpsc::{self, RecvTimeoutError};
+use std::time::{Duration, Instant};
 
 use crate::cancel::Cancelled;
 use crate::georef::Georeference;
-use crate::io::{self, ReadError, ReadOptions, SidecarKind, UnitsError};
+use crate::io::{self, BytesRead, ReadError, ReadOptions, SidecarKind, UnitsError};
 use crate::params::Params;
 use crate::pipeline::{self, PlanError};
 use crate::plan::FloorPlan;
@@ -143,6 +144,7 @@ pub fn plan_scan(scan: &Scan<'_>, progress: &mut dyn Progress) -> Result<Planned
     let start = Instant::now();
     let read = ReadOptions {
         cancel: progress.cancel(),
+        bytes: BytesRead::counting(),
         ..scan.read.clone()
     };
     if let Some(max) = scan.max_points {
@@ -153,7 +155,13 @@ pub fn plan_scan(scan: &Scan<'_>, progress: &mut dyn Progress) -> Result<Planned
     }
     let mut planned = match &scan.stream {
         None => {
-            let cloud = io::read_scan(scan.cloud, scan.sidecar, &read)?;
+            let total = std::fs::metadata(scan.cloud).map_or(0, |m| m.len());
+            let cloud = read_reporting(
+                || io::read_scan(scan.cloud, scan.sidecar, &read),
+                &read.bytes,
+                total,
+                progress,
+            )?;
             if let Some(max) = scan.max_points {
                 check_points(cloud.len() as u64, max)?;
             }
@@ -211,6 +219,44 @@ pub fn plan_scan(scan: &Scan<'_>, progress: &mut dyn Progress) -> Result<Planned
     Ok(planned)
 }
 
+/// How often the bytes read are passed on: often enough for a moving bar, rarely enough to
+/// cost nothing.
+const READ_REPORT_EVERY: Duration = Duration::from_millis(200);
+
+/// Runs `read` on a thread of its own, passing the bytes it has read (of `total`) to
+/// `progress` every [`READ_REPORT_EVERY`] and once at the end. A panic in `read` is passed on.
+fn read_reporting<T: Send>(
+    read: impl FnOnce() -> T + Send,
+    bytes: &BytesRead,
+    total: u64,
+    progress: &mut dyn Progress,
+) -> T {
+    // The readers that decode on this thread (PLY) get the stack a main thread has.
+    const STACK: usize = 8 << 20;
+    std::thread::scope(|s| {
+        let (done, finished) = mpsc::channel::<()>();
+        let reader = std::thread::Builder::new()
+            .name("asbuilt-read-watch".into())
+            .stack_size(STACK)
+            .spawn_scoped(s, move || {
+                let out = read();
+                let _ = done.send(());
+                out
+            })
+            .expect("a thread for the read");
+        progress.read(0, total);
+        // A timeout reports; a message (or a panic, which drops the sender) ends the wait.
+        while let Err(RecvTimeoutError::Timeout) = finished.recv_timeout(READ_REPORT_EVERY) {
+            progress.read(bytes.get().min(total), total);
+        }
+        let out = reader
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+        progress.read(bytes.get().min(total), total);
+        out
+    })
+}
+
 fn check_points(points: u64, max: u64) -> Result<(), RunError> {
     match points > max {
         true => Err(RunError::TooManyPoints { points, max }),
@@ -249,6 +295,60 @@ mod tests {
             stories: vec![],
             notes: vec![],
         }
+    }
+
+    /// Records the read and story reports.
+    #[derive(Default)]
+    struct Recorded {
+        reads: Vec<(u64, u64)>,
+        stories: Vec<(usize, usize)>,
+    }
+
+    impl Progress for Recorded {
+        fn report(&mut self, _: Stage, _: f64) {}
+        fn read(&mut self, bytes: u64, total: u64) {
+            self.reads.push((bytes, total));
+        }
+        fn story(&mut self, number: usize, count: usize) {
+            self.stories.push((number, count));
+        }
+    }
+
+    #[test]
+    fn reading_reports_its_bytes_and_each_story_its_number() {
+        use crate::simulate::{simulate, BuildingKind, ScanOptions};
+        let dir = tempfile::tempdir().unwrap();
+        let options = ScanOptions {
+            points: 60_000,
+            seed: 3,
+            ..Default::default()
+        };
+        let sim = simulate(BuildingKind::SquareRoom, &options).unwrap();
+        let path = dir.path().join("room.ply");
+        io::ply::write_ply(&path, &sim.cloud, io::ply::Encoding::BinaryLittleEndian).unwrap();
+        let total = std::fs::metadata(&path).unwrap().len();
+        let params = Params::default();
+        let scan = Scan {
+            cloud: &path,
+            sidecar: None,
+            read: ReadOptions::default(),
+            params: &params,
+            stream: None,
+            max_points: None,
+        };
+        let mut seen = Recorded::default();
+        let planned = plan_scan(&scan, &mut seen).unwrap();
+        assert_eq!(seen.reads.first(), Some(&(0, total)));
+        assert_eq!(seen.reads.last(), Some(&(total, total)), "{:?}", seen.reads);
+        assert!(seen.reads.windows(2).all(|w| w[0].0 <= w[1].0));
+        assert_eq!(seen.stories, vec![(1, 1)]);
+        // The story's underlay: walls in the slice are dark, the floor inside pale.
+        let story = &planned.plan.stories[0];
+        let u = story.underlay.as_ref().expect("an underlay");
+        assert!(u.slice_z[0] > story.floor_z && u.slice_z[1] < story.ceiling_z);
+        let dark = u.levels.iter().filter(|&&l| l >= 128).count();
+        let pale = u.levels.iter().filter(|&&l| l == 1).count();
+        assert!(dark > 100 && pale > 10 * dark, "dark {dark}, pale {pale}");
     }
 
     #[test]

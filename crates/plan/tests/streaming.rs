@@ -85,6 +85,13 @@ fn assert_same_plan(a: &FloorPlan, b: &FloorPlan) {
     assert_eq!(a.stories.len(), b.stories.len());
     for (x, y) in a.stories.iter().zip(&b.stories) {
         assert_eq!(x.samples, y.samples, "level {}: samples differ", x.level);
+        // The underlay too: made by the same counting pass, tile by tile.
+        assert!(x.underlay.is_some(), "level {}: no underlay", x.level);
+        assert_eq!(
+            x.underlay, y.underlay,
+            "level {}: underlays differ",
+            x.level
+        );
         assert_eq!(x, y, "level {}", x.level);
     }
 }

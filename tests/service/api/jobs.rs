@@ -157,7 +157,9 @@ async fn multipart_with_poses_and_params() {
 #[tokio::test]
 async fn events_stream_progress_until_done() {
     let s = start(fake(150), |_| {}).await;
-    let job = s.upload(xyz(5)).await;
+    // Three stories: the per-story stages run three times, each time with its story's number.
+    let cloud = format!("#stories:3\n{}", xyz(5));
+    let job = s.upload(cloud.clone()).await;
     let id = job["id"].as_str().unwrap();
     let res = s
         .get(&format!("/v1/jobs/{id}/events"))
@@ -196,6 +198,24 @@ async fn events_stream_progress_until_done() {
         .map(|j| j["progress"].as_f64().unwrap())
         .collect();
     assert!(progress.windows(2).all(|w| w[0] <= w[1]), "{progress:?}");
+    // "Story k of n" from the server, rising to the last story.
+    let numbers: Vec<u64> = jobs
+        .iter()
+        .filter_map(|j| j["story"]["number"].as_u64())
+        .collect();
+    assert!(numbers.windows(2).all(|w| w[0] <= w[1]), "{numbers:?}");
+    assert_eq!(numbers.last(), Some(&3), "{text}");
+    assert!(jobs
+        .iter()
+        .filter(|j| !j["story"].is_null())
+        .all(|j| j["story"]["count"] == 3));
+    // The bytes read, where seen, are of the upload; none once the job ended.
+    for j in jobs.iter().filter(|j| !j["read"].is_null()) {
+        assert_eq!(j["read"]["total"], cloud.len(), "{j}");
+        assert!(j["read"]["bytes"].as_u64().unwrap() <= cloud.len() as u64);
+    }
+    let last = jobs.last().unwrap();
+    assert!(last["read"].is_null() && last["story"].is_null(), "{last}");
 }
 
 #[tokio::test]

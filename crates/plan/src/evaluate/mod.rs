@@ -263,6 +263,7 @@ fn moved(s: &StoryPlan, shift: [f64; 3]) -> StoryPlan {
             .collect(),
         samples: Vec::new(),
         spaces: moved_spaces(&s.spaces, m),
+        underlay: None,
     }
 }
 
@@ -405,6 +406,7 @@ mod tests {
                 walls: Vec::new(),
                 samples: Vec::new(),
                 spaces: Default::default(),
+                underlay: None,
             }],
             notes: Vec::new(),
         }

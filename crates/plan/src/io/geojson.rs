@@ -52,6 +52,7 @@ pub fn to_geojson(plan: &FloorPlan) -> Value {
             "parameters": plan.parameters,
             "timings_ms": timings,
             "notes": plan.notes,
+            "underlay": super::outputs::underlay::describe(plan),
         },
         "features": features,
     })
@@ -107,6 +108,7 @@ fn viewpoints(plan: &FloorPlan) -> Value {
             "located": p.located,
             "residual_m": p.residual.map(round4),
             "length_m": p.length.map(round4),
+            "positions": p.positions.iter().map(|&q| world(q)).collect::<Vec<_>>(),
         })
     });
     let open_space: Vec<Value> = v
@@ -356,6 +358,7 @@ pub(crate) mod tests {
             walls,
             samples: vec![[0.5, 0.0], [1.0, 0.0], [4.0, 2.0]],
             spaces: Default::default(),
+            underlay: None,
         }
     }
 

@@ -23,6 +23,8 @@ pub(crate) mod xyz;
 use std::fs::File;
 use std::io::{BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 
 use crate::cancel::{Cancel, Cancelled};
 use crate::cloud::{PointCloud, Viewpoints};
@@ -155,6 +157,40 @@ pub struct ReadOptions {
     /// Stops the read (checked every time the reader asks its source for bytes, about every
     /// megabyte); the read then fails with [`ReadError::Cancelled`].
     pub cancel: Cancel,
+    /// Counts how far into the file the reader has got, for progress reports.
+    pub bytes: BytesRead,
+}
+
+/// How far into a cloud's file its reader has got (the furthest byte asked for), shared with
+/// whoever reports progress: the reader runs on a thread of its own. The default counts
+/// nothing.
+#[derive(Debug, Clone, Default)]
+pub struct BytesRead(Option<Arc<AtomicU64>>);
+
+impl BytesRead {
+    /// A counter that counts.
+    pub fn counting() -> BytesRead {
+        BytesRead(Some(Arc::default()))
+    }
+
+    /// Bytes read so far (0 for a counter that does not count).
+    pub fn get(&self) -> u64 {
+        self.0.as_ref().map_or(0, |c| c.load(Ordering::Relaxed))
+    }
+
+    fn reached(&self, position: u64) {
+        if let Some(c) = &self.0 {
+            c.fetch_max(position, Ordering::Relaxed);
+        }
+    }
+}
+
+/// Any two counters are equal, as [`Cancel`]s are: options holding one still compare by what
+/// they say about the file.
+impl PartialEq for BytesRead {
+    fn eq(&self, _: &BytesRead) -> bool {
+        true
+    }
 }
 
 impl Default for ReadOptions {
@@ -165,6 +201,7 @@ impl Default for ReadOptions {
             format: None,
             keep_time: true,
             cancel: Cancel::never(),
+            bytes: BytesRead::default(),
         }
     }
 }
@@ -180,7 +217,7 @@ pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<PointCloud,
     let mut file = File::open(path).map_err(|e| ReadError::io(&name, e))?;
     let head = sniff(&mut file, &name)?;
     let format = choose_format(&name, &head, options)?;
-    let file = Checked::new(file, &options.cancel);
+    let file = Checked::new(file, options);
     let read = match format {
         Format::Ply => {
             let len = file
@@ -231,7 +268,7 @@ where
 {
     let head = sniff(&mut source, name)?;
     let format = choose_format(name, &head, options)?;
-    let source = Checked::new(source, &options.cancel);
+    let source = Checked::new(source, options);
     let cloud = stopped(read_stream(source, name, format, options), name, options)?;
     finish(cloud, name, options)
 }
@@ -250,17 +287,22 @@ fn stopped(
 }
 
 /// A source that refuses to give more bytes once its [`Cancel`] says stop: every reader asks
-/// its source for the next buffer, so this puts a check in every reader's loop.
+/// its source for the next buffer, so this puts a check in every reader's loop. It also
+/// tells its [`BytesRead`] how far the reader has got.
 struct Checked<R> {
     inner: R,
     cancel: Cancel,
+    bytes: BytesRead,
+    position: u64,
 }
 
 impl<R> Checked<R> {
-    fn new(inner: R, cancel: &Cancel) -> Checked<R> {
+    fn new(inner: R, options: &ReadOptions) -> Checked<R> {
         Checked {
             inner,
-            cancel: cancel.clone(),
+            cancel: options.cancel.clone(),
+            bytes: options.bytes.clone(),
+            position: 0,
         }
     }
 }
@@ -268,13 +310,17 @@ impl<R> Checked<R> {
 impl<R: Read> Read for Checked<R> {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
         self.cancel.check().map_err(std::io::Error::other)?;
-        self.inner.read(buf)
+        let n = self.inner.read(buf)?;
+        self.position += n as u64;
+        self.bytes.reached(self.position);
+        Ok(n)
     }
 }
 
 impl<R: Seek> Seek for Checked<R> {
     fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
-        self.inner.seek(pos)
+        self.position = self.inner.seek(pos)?;
+        Ok(self.position)
     }
 }
 

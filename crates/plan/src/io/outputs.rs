@@ -9,6 +9,7 @@ pub(crate) mod ifc;
 #[cfg(test)]
 pub(crate) mod python;
 pub(crate) mod rooms_csv;
+pub(crate) mod underlay;
 
 /// One result format.
 #[derive(Debug, Clone, Copy)]
@@ -26,7 +27,7 @@ pub struct Output {
 }
 
 /// Every result format, GeoJSON (the contract) first.
-pub const OUTPUTS: [Output; 6] = [
+pub const OUTPUTS: [Output; 7] = [
     Output {
         name: "geojson",
         file: "plan.geojson",
@@ -73,6 +74,14 @@ pub const OUTPUTS: [Output; 6] = [
             text.push('\n');
             Ok(text.into_bytes())
         },
+    },
+    // Where each story lies in it: `floorplan.underlay` in the GeoJSON.
+    Output {
+        name: "underlay",
+        file: underlay::FILE,
+        media_type: "image/png",
+        about: "each story's points at mid-height as an image to draw under the plan (where it lies: floorplan.underlay in the GeoJSON)",
+        write: underlay::to_png,
     },
 ];
 

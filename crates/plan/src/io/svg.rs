@@ -9,6 +9,8 @@
 
 use std::fmt::Write;
 
+use base64::Engine;
+
 use crate::geom::{dist, normalize, point_segment_distance, sub, P2};
 use crate::io::dxf::arc_span;
 use crate::plan::{DoorKind, FloorPlan, Polygon, StoryPlan, WallModel};
@@ -18,13 +20,22 @@ use crate::plan::{DoorKind, FloorPlan, Polygon, StoryPlan, WallModel};
 pub struct SvgOptions {
     /// Draw each story's wall samples as small dots.
     pub samples: bool,
+    /// Draw each story's underlay (its points at mid-height) under the walls, as a layer of
+    /// its own (`<g class="underlay">`).
+    pub underlay: bool,
 }
 
 impl SvgOptions {
-    /// Samples follow the run's `emit_samples` parameter, as in the GeoJSON.
+    /// Samples follow the run's `emit_samples` parameter, as in the GeoJSON; the underlay its
+    /// `svg_underlay` parameter.
     pub fn for_plan(plan: &FloorPlan) -> SvgOptions {
         SvgOptions {
             samples: crate::io::geojson::emit_samples(plan),
+            underlay: plan
+                .parameters
+                .get("svg_underlay")
+                .and_then(serde_json::Value::as_bool)
+                .unwrap_or(false),
         }
     }
 }
@@ -219,6 +230,9 @@ fn draw_story(
         );
     }
     draw_spaces(svg, story, panel);
+    if options.underlay {
+        draw_underlay(svg, story, panel);
+    }
     for wall in &story.walls {
         let Some(d) = wall_path(panel, wall) else {
             continue;
@@ -238,6 +252,38 @@ fn draw_story(
     }
     draw_labels(svg, story, panel);
     svg.push_str("</g>\n");
+}
+
+/// The story's underlay as an embedded PNG, cell for cell, clipped to the panel: over the
+/// floor and rooms, under the fitted walls.
+fn draw_underlay(svg: &mut String, story: &StoryPlan, panel: &Panel) {
+    let Some(u) = &story.underlay else {
+        return;
+    };
+    let Ok(png) = crate::io::outputs::underlay::story_png(u) else {
+        return;
+    };
+    let [lo, hi] = u.bounds();
+    let (x0, y1) = panel.px(lo);
+    let (x1, y0) = panel.px(hi);
+    let level = story.level;
+    let _ = writeln!(
+        svg,
+        r#"<clipPath id="underlay-clip-{level}"><rect x="{:.1}" y="{:.1}" width="{:.1}" height="{:.1}"/></clipPath>"#,
+        panel.left - 6.0,
+        panel.top - 6.0,
+        panel.width + 12.0,
+        panel.height + 12.0
+    );
+    let _ = writeln!(
+        svg,
+        r#"<g class="underlay" id="underlay-{level}" opacity="0.7" clip-path="url(#underlay-clip-{level})"><title>Points at mid-height, {:.2} to {:.2} m above the floor</title><image x="{x0:.2}" y="{y0:.2}" width="{:.2}" height="{:.2}" preserveAspectRatio="none" style="image-rendering:pixelated" href="data:image/png;base64,{}"/></g>"#,
+        u.slice_z[0] - story.floor_z,
+        u.slice_z[1] - story.floor_z,
+        x1 - x0,
+        y1 - y0,
+        base64::engine::general_purpose::STANDARD.encode(&png)
+    );
 }
 
 /// Rooms, wall bands, doors, openings and windows, under the fitted walls.
@@ -583,7 +629,13 @@ mod tests {
     #[test]
     fn scale_bar_is_labelled_in_metres_and_samples_optional() {
         let p = two_story_plan();
-        let svg = to_svg_with(&p, &SvgOptions { samples: true });
+        let svg = to_svg_with(
+            &p,
+            &SvgOptions {
+                samples: true,
+                underlay: false,
+            },
+        );
         elements(&svg);
         let label = svg
             .lines()

@@ -110,6 +110,10 @@ pub fn wgs84_of(mut doc: Value) -> Value {
             .map_err(|e| format!("not georeferenced: {e}")),
     };
     let meta = &mut doc["floorplan"];
+    // The underlay's rectangles are in the plan's own metres, as its image is.
+    if let Some(m) = meta.as_object_mut() {
+        m.remove("underlay");
+    }
     meta["source_crs"] = json!(crs);
     meta["crs"] = json!("OGC:CRS84");
     meta["units"] = json!("degrees");

@@ -85,6 +85,9 @@ pub(super) struct Grid {
     pub summaries: Vec<Summary>,
     /// Per held cell: what the summary of its 3 × 3 block says (`Empty` outside the core).
     pub screens: Vec<Screen>,
+    /// Per core cell (row-major in the core): 0 without points, else one more than its points
+    /// in the underlay's slice (see [`crate::underlay`]).
+    pub density: Vec<u32>,
 }
 
 /// The heights of one cell's own points: their number and range, and which height bins they
@@ -95,6 +98,8 @@ pub(super) struct Summary {
     pub zmin: f32,
     pub zmax: f32,
     pub mask: u32,
+    /// Points in the underlay's slice.
+    pub slice: u32,
 }
 
 impl Default for Summary {
@@ -104,6 +109,7 @@ impl Default for Summary {
             zmin: f32::INFINITY,
             zmax: f32::NEG_INFINITY,
             mask: 0,
+            slice: 0,
         }
     }
 }
@@ -115,6 +121,7 @@ impl Summary {
         self.zmin = self.zmin.min(o.zmin);
         self.zmax = self.zmax.max(o.zmax);
         self.mask |= o.mask;
+        self.slice += o.slice;
     }
 }
 
@@ -128,7 +135,8 @@ impl Grid {
     /// (see [`super::cell::Tests::bin_code`]). Only the points in `spans` (index ranges, in
     /// order) are looked at; `None` is all. Each cell of `core` is screened by `screen` on its
     /// block's summary, and the points of a cell are kept only when it lies in the 3 × 3 block
-    /// of a candidate. Stops with `Cancelled` once `cancel` says so.
+    /// of a candidate. Points with `slice[0] <= z < slice[1]` are counted for the underlay.
+    /// Stops with `Cancelled` once `cancel` says so.
     #[allow(clippy::too_many_arguments)]
     pub fn build(
         points: Points<'_>,
@@ -139,6 +147,7 @@ impl Grid {
         carry: Carry,
         bin_code: impl Fn(f32) -> u8 + Sync,
         screen: impl Fn(&Summary) -> Result<(), Reject> + Sync,
+        slice: [f32; 2],
         cancel: &Cancel,
     ) -> Result<Grid, SamplesError> {
         let xyz = points.xyz;
@@ -209,6 +218,7 @@ impl Grid {
                         s.n += 1;
                         s.zmin = s.zmin.min(p[2]);
                         s.zmax = s.zmax.max(p[2]);
+                        s.slice += u32::from(p[2] >= slice[0] && p[2] < slice[1]);
                         let b = bin_code(p[2]);
                         if b != super::cell::NO_BIN {
                             s.mask |= 1 << b;
@@ -230,6 +240,19 @@ impl Grid {
         // What each core cell's block summary says, a row per task, then which cells' points
         // a candidate's neighbourhood will read.
         let id = |i: usize, j: usize| (j - range.j.start) * width + (i - range.i.start);
+        let density = core
+            .j
+            .clone()
+            .flat_map(|j| core.i.clone().map(move |i| (i, j)))
+            .map(|(i, j)| {
+                let s = &summaries[id(i, j)];
+                if s.n == 0 {
+                    0
+                } else {
+                    s.slice.saturating_add(1)
+                }
+            })
+            .collect();
         let mut screens = vec![Screen::Empty; cells];
         screens
             .par_chunks_mut(width)
@@ -336,6 +359,7 @@ impl Grid {
             #[cfg(test)]
             summaries,
             screens,
+            density,
         })
     }
 
@@ -444,6 +468,7 @@ mod tests {
             Carry::Slots,
             |z| (z > 0.75) as u8,
             |_| Ok(()),
+            [0.5, 1.0],
             &Cancel::never(),
         )
         .unwrap()
@@ -475,7 +500,9 @@ mod tests {
             assert_eq!(runs, cells);
         }
         let s = g.summaries[0];
-        assert_eq!((s.zmin, s.zmax, s.mask), (0.5, 1.0, 0b11));
+        assert_eq!((s.zmin, s.zmax, s.mask, s.slice), (0.5, 1.0, 0b11, 1));
+        // The underlay's counts: one more than the slice points ([0.5, 1.0): the point at 0.5).
+        assert_eq!(g.density, vec![2, 0, 1, 1, 0, 0]);
         // A range holds only its cells, with the same contents.
         let part = grid(&xyz, Some(CellRange { i: 2..3, j: 0..2 }));
         assert_eq!(part.pts, vec![[0.12, 0.01, 1.0]]);

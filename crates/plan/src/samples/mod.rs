@@ -22,6 +22,7 @@ use crate::cloud::{PointCloud, Viewpoints};
 use crate::geom::P2;
 use crate::params::{within, ParamRange};
 use crate::stories::Story;
+use crate::underlay::{slice_of, DensityPart, Underlay};
 pub use bounds::{Blocks, CellRange, GridFrame, StoryBounds};
 use cell::{Reject, Tests};
 use grid::{Carry, Grid, Points, Screen, Summary};
@@ -118,6 +119,9 @@ pub struct WallSamples {
     pub min_points_used: usize,
     /// Cells that passed every test before the range filter, for reports.
     pub cells_tested: usize,
+    /// The story's points at mid-height on this grid, drawn under the plan (not serialized).
+    #[serde(skip)]
+    pub underlay: Option<Underlay>,
 }
 
 /// Why sampling failed.
@@ -201,7 +205,7 @@ pub fn sample_walls_in(
         spans,
     };
     let scan = scan_cells(&source, story, params, frame, frame.all(), cancel)?;
-    finish_samples(cloud, viewpoints, story, params, vec![scan])
+    finish_samples(cloud, viewpoints, story, params, frame, vec![scan])
 }
 
 /// The wall-like cells of one range of a story's grid, with the rejections by reason: the part
@@ -211,6 +215,8 @@ pub(crate) struct CellScan {
     /// Wall-like cells in row-major order, each with its id `j * nx + i` in the whole grid.
     found: Vec<(u64, Found)>,
     tally: [usize; 6],
+    /// The range's counts for the underlay.
+    density: DensityPart,
 }
 
 /// The points a range of cells is tested on, and the scanners that saw them.
@@ -238,6 +244,7 @@ pub(crate) fn scan_cells(
     let mut out = CellScan {
         found: Vec::new(),
         tally: [0; 6],
+        density: DensityPart::default(),
     };
     if core.is_empty() {
         return Ok(out);
@@ -263,6 +270,7 @@ pub(crate) fn scan_cells(
         carry,
         |z| tests.bin_code(z),
         |block| prefilter(&tests, block, min_points),
+        slice_of(story).map(|z| z as f32),
         cancel,
     )?;
     let scan = Scan {
@@ -287,19 +295,30 @@ pub(crate) fn scan_cells(
             .for_each(|(t, r)| *t += r);
         out.found.extend(row.found);
     }
+    out.density = DensityPart {
+        range: Some(core),
+        counts: grid.density,
+    };
     Ok(out)
 }
 
-/// Turns the scans of every part of a story's grid into its samples: the adaptive threshold
-/// over all wall-like cells, then the range filter. `cloud` gives the viewpoints (its points
-/// are not read).
+/// Turns the scans of every part of a story's grid (`frame`) into its samples: the adaptive
+/// threshold over all wall-like cells, then the range filter; and the parts' counts into the
+/// story's underlay. `cloud` gives the viewpoints (its points are not read).
 pub(crate) fn finish_samples(
     cloud: &PointCloud,
     viewpoints: &Viewpoints,
     story: &Story,
     params: &SamplesParams,
-    scans: Vec<CellScan>,
+    frame: &GridFrame,
+    mut scans: Vec<CellScan>,
 ) -> Result<WallSamples, SamplesError> {
+    let parts: Vec<DensityPart> = scans
+        .iter_mut()
+        .map(|s| std::mem::take(&mut s.density))
+        .collect();
+    let underlay = Underlay::assemble(frame, slice_of(story), &parts);
+    drop(parts);
     let views = Views::new(cloud, viewpoints, story);
     let mut tally = [0usize; 6];
     let mut found = Vec::with_capacity(scans.iter().map(|s| s.found.len()).sum());
@@ -345,6 +364,7 @@ pub(crate) fn finish_samples(
         path: views.path,
         min_points_used,
         cells_tested,
+        underlay,
     })
 }
 

@@ -251,6 +251,7 @@ fn story_plan(s: &TruthStory) -> StoryPlan {
             .collect(),
         samples: Vec::new(),
         spaces: truth_spaces(s),
+        underlay: None,
     }
 }
 

@@ -386,8 +386,15 @@ fn sample_tiles(
         .into_iter()
         .zip(stories)
         .map(|(entry, story)| {
-            Some(entry.and_then(|(_, list)| {
-                finish_samples(skeleton, &skeleton.viewpoints, story, &params.samples, list)
+            Some(entry.and_then(|(frame, list)| {
+                finish_samples(
+                    skeleton,
+                    &skeleton.viewpoints,
+                    story,
+                    &params.samples,
+                    &frame,
+                    list,
+                )
             }))
         })
         .collect();

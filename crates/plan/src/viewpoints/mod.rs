@@ -146,6 +146,44 @@ pub struct PathReport {
     pub residual: Option<f64>,
     /// Estimated paths: the path's length, metres.
     pub length: Option<f64>,
+    /// The path in time order, local frame, thinned for drawing ([`thin_path`]).
+    pub positions: Vec<[f64; 3]>,
+}
+
+/// Spacing of a reported path's positions, metres: finer than a plan's detail at a glance.
+pub const PATH_STEP: f64 = 0.25;
+/// The most positions a path report holds; a longer path is thinned further.
+pub const MAX_PATH_POSITIONS: usize = 2000;
+
+/// A path's positions for drawing: the first, then each one at least [`PATH_STEP`] from the
+/// last kept, and the last; at most [`MAX_PATH_POSITIONS`] (every k-th kept beyond that).
+pub fn thin_path(path: impl Iterator<Item = [f64; 3]>) -> Vec<[f64; 3]> {
+    let mut kept: Vec<[f64; 3]> = Vec::new();
+    let mut last = None;
+    for p in path.filter(|p| p.iter().all(|c| c.is_finite())) {
+        last = Some(p);
+        let far = kept.last().is_none_or(|q| {
+            let (dx, dy, dz) = (p[0] - q[0], p[1] - q[1], p[2] - q[2]);
+            dx * dx + dy * dy + dz * dz >= PATH_STEP * PATH_STEP
+        });
+        if far {
+            kept.push(p);
+        }
+    }
+    if let Some(p) = last {
+        if kept.last() != Some(&p) {
+            kept.push(p);
+        }
+    }
+    if kept.len() > MAX_PATH_POSITIONS {
+        let k = kept.len().div_ceil(MAX_PATH_POSITIONS - 1);
+        let end = *kept.last().expect("a position");
+        kept = kept.into_iter().step_by(k).collect();
+        if kept.last() != Some(&end) {
+            kept.push(end);
+        }
+    }
+    kept
 }
 
 /// One story's pseudo-viewpoints (plain x, y, z).
@@ -255,6 +293,7 @@ pub(crate) fn given_report(viewpoints: &Viewpoints, counts: &[u64]) -> Option<Vi
                 located: 0,
                 residual: None,
                 length: None,
+                positions: thin_path(samples.iter().map(|s| s.position)),
             }),
             ..Default::default()
         }),
@@ -587,5 +626,30 @@ mod tests {
             ..Default::default()
         };
         assert_eq!(estimate(&cloud, &off).viewpoints, None);
+    }
+
+    #[test]
+    fn a_path_is_thinned_to_steps_keeping_its_ends() {
+        // 10 m walked in 1 cm steps, then standing still, then a NaN.
+        let walk = (0..=1000).map(|k| [k as f64 * 0.01, 2.0, 1.5]);
+        let still = std::iter::repeat_n([10.0, 2.0, 1.5], 50);
+        let bad = std::iter::once([f64::NAN, 0.0, 0.0]);
+        let kept = thin_path(walk.chain(still).chain(bad));
+        assert!(
+            (39..=42).contains(&kept.len()),
+            "every 25 cm over 10 m: {}",
+            kept.len()
+        );
+        assert_eq!(kept[0], [0.0, 2.0, 1.5]);
+        assert_eq!(*kept.last().unwrap(), [10.0, 2.0, 1.5]);
+        assert!(kept
+            .windows(2)
+            .all(|w| (w[1][0] - w[0][0]) >= PATH_STEP - 1e-9));
+        // A very long path stays within the cap, ends included.
+        let long = thin_path((0..=100_000).map(|k| [k as f64 * 0.3, 0.0, 0.0]));
+        assert!(long.len() <= MAX_PATH_POSITIONS, "{}", long.len());
+        assert_eq!(long[0][0], 0.0);
+        assert_eq!(long.last().unwrap()[0], 30_000.0);
+        assert!(thin_path(std::iter::empty()).is_empty());
     }
 }

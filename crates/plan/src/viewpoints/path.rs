@@ -61,6 +61,7 @@ pub(crate) fn estimate_path(cloud: &PointCloud, params: &super::ViewpointsParams
         located: kept.len(),
         residual: residuals.get(residuals.len() / 2).copied(),
         length: Some(length),
+        positions: super::thin_path(samples.iter().map(|s| s.1)),
     };
     let usable = samples.len() >= 2;
     Estimate {
