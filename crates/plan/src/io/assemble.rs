@@ -93,6 +93,68 @@ impl CloudBuilder {
         }
     }
 
+    /// True once a finite point has fixed the local frame.
+    pub fn has_origin(&self) -> bool {
+        self.origin.is_some()
+    }
+
+    /// The local frame's origin, once fixed.
+    pub fn origin(&self) -> Option<[f64; 3]> {
+        self.origin
+    }
+
+    /// Fixes the local frame from world point `p` (finite), as pushing it first would.
+    pub fn fix_origin(&mut self, p: [f64; 3]) {
+        self.origin.get_or_insert_with(|| local_origin(Some(p)));
+    }
+
+    /// Counts `n` points skipped as non-finite by a decoder that placed points itself.
+    pub fn skip(&mut self, n: u64) {
+        self.skipped += n;
+    }
+
+    /// An empty builder in this one's local frame, for a piece of the file decoded on another
+    /// thread and appended with [`Self::absorb`]. Call it once the frame is fixed.
+    pub fn part(&self, expected: usize) -> CloudBuilder {
+        let mut part = CloudBuilder::new(&self.cloud.source.format, expected, None, self.keep_time);
+        part.origin = self.origin;
+        part
+    }
+
+    /// Appends a part's points as if they had been pushed here, in order: its scans take
+    /// slots here in their order of first appearance, its skipped points add up. On error (too
+    /// many scans) nothing of the part is added, though its first scans may have slots.
+    pub fn absorb(&mut self, part: &CloudBuilder) -> Result<(), String> {
+        let slots = part
+            .cloud
+            .scan_ids
+            .iter()
+            .map(|&id| self.scan_slot(id))
+            .collect::<Result<Vec<u16>, String>>()?;
+        let (from, c) = (&part.cloud, &mut self.cloud);
+        let n = from.xyz.len();
+        if c.xyz.capacity() - c.xyz.len() < n {
+            // As `push` grows: by a quarter, never doubling.
+            c.xyz.reserve_exact(n.max(c.xyz.len() / 4).max(1 << 16));
+        }
+        c.xyz.extend_from_slice(&from.xyz);
+        if !from.scan.is_empty() {
+            // Sized to the point array, so neither array doubles.
+            c.scan.reserve_exact(c.xyz.capacity() - c.scan.len());
+            c.scan
+                .extend(from.scan.iter().map(|&s| slots[usize::from(s)]));
+        }
+        if !from.time.is_empty() {
+            c.time.reserve_exact(c.xyz.capacity() - c.time.len());
+            c.time.extend_from_slice(&from.time);
+        }
+        self.skipped += part.skipped;
+        if self.origin.is_none() {
+            self.origin = part.origin;
+        }
+        Ok(())
+    }
+
     /// Gives access to the cloud's other fields (viewpoints, CRS, details) before finishing.
     pub fn cloud_mut(&mut self) -> &mut PointCloud {
         &mut self.cloud

@@ -6,7 +6,8 @@
 
 use std::io::{Read, Seek, SeekFrom};
 
-use las::{LazParallelism, PointDataBuilder, Reader, ReaderOptions};
+use las::{LazParallelism, PointData, PointDataBuilder, Reader, ReaderOptions};
+use rayon::prelude::*;
 
 mod chunks;
 
@@ -18,6 +19,9 @@ use crate::cloud::PointCloud;
 
 /// Points decoded per chunk: small enough to stay in cache, large enough to amortise calls.
 const CHUNK: u64 = 64 * 1024;
+
+/// Uncompressed LAS is decoded in groups of this many batches per thread.
+const GROUP_PER_THREAD: usize = 4;
 
 /// No LAZ file holds more points per byte than this; a header that claims more is corrupt.
 const MAX_LAZ_POINTS_PER_BYTE: u64 = 64;
@@ -51,9 +55,13 @@ where
     R: Read + Seek + Send + Sync + 'static,
 {
     let plan = check_header(&mut source, len, name)?;
+    let threads = super::pool::threads();
     if parallel && plan.laz_chunk.is_some() {
         // The decoder's threads are the pool's: run the whole read there.
         super::pool::install(|| decode_las(source, len, name, options, &plan, true))
+    } else if parallel && plan.format == "las" && threads > 1 {
+        let group = GROUP_PER_THREAD * threads;
+        super::pool::install(|| decode_las_groups(source, name, options, &plan, CHUNK, group))
     } else {
         decode_las(source, len, name, options, &plan, false)
     }
@@ -89,66 +97,174 @@ where
     let mut done = 0u64;
     let mut outside = 0u64;
     loop {
-        let at = || {
-            let end = (done + batch).min(count).max(done + 1) - 1;
-            format!("points {done} to {end} of {count}")
-        };
-        // The LAZ decoder asserts on some damaged chunks; catching the panic here, rather than
-        // in the reader thread, tells the user where the damage starts.
-        let filled = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            reader.fill_points(batch, &mut pd)
-        }));
-        let n = match filled {
-            Ok(Ok(n)) => n,
-            Ok(Err(e)) => return Err(ReadError::at(name, fname, e.to_string(), at())),
-            Err(panic) => {
-                return Err(ReadError::at(
-                    name,
-                    fname,
-                    format!(
-                        "the decoder failed ({}): the point data is damaged",
-                        super::panic_text(&panic)
-                    ),
-                    at(),
-                ))
-            }
-        };
+        let n = fill(&mut reader, batch, &mut pd, done, count, name, fname)?;
         if n == 0 {
             break;
         }
-        let mut times = pd.gps_time();
-        for (i, (((x, y), z), id)) in pd
-            .x()
-            .zip(pd.y())
-            .zip(pd.z())
-            .zip(pd.point_source_id())
-            .enumerate()
-        {
-            let p = [x, y, z];
-            // Out-of-bounds points in a LAZ mean a damaged chunk decoded to garbage; in a
-            // plain LAS the integers are what was written, and stale header bounds are common
-            // in real files, so those points are kept and the details say so.
-            if !guard.contains(p) && fname == "las" {
-                outside += 1;
-            } else if !guard.contains(p) {
-                return Err(ReadError::at(
-                    name,
-                    fname,
-                    format!(
-                        "({x}, {y}, {z}) lies outside the header's bounding box; the point data is corrupt{}",
-                        " (a damaged compressed chunk?)"
-                    ),
-                    format!("point {}", done + i as u64),
-                ));
-            }
-            let slot = b
-                .scan_slot(u32::from(id))
-                .map_err(|why| ReadError::named(name, fname, why))?;
-            let t = times.as_mut().and_then(|t| t.next());
-            b.push(p, Some(slot), t);
-        }
+        outside += decode_batch(&mut b, &pd, &guard, done, name, fname)?;
         done += n;
     }
+    finish_las(b, &header, done, count, outside, name, fname)
+}
+
+/// Reads the next `batch` points into `pd`; 0 at the end. Errors say which points.
+fn fill(
+    reader: &mut Reader,
+    batch: u64,
+    pd: &mut PointData,
+    done: u64,
+    count: u64,
+    name: &str,
+    fname: &'static str,
+) -> Result<u64, ReadError> {
+    let at = || {
+        let end = (done + batch).min(count).max(done + 1) - 1;
+        format!("points {done} to {end} of {count}")
+    };
+    // The LAZ decoder asserts on some damaged chunks; catching the panic here, rather than
+    // in the reader thread, tells the user where the damage starts.
+    let filled = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        reader.fill_points(batch, pd)
+    }));
+    match filled {
+        Ok(Ok(n)) => Ok(n),
+        Ok(Err(e)) => Err(ReadError::at(name, fname, e.to_string(), at())),
+        Err(panic) => Err(ReadError::at(
+            name,
+            fname,
+            format!(
+                "the decoder failed ({}): the point data is damaged",
+                super::panic_text(&panic)
+            ),
+            at(),
+        )),
+    }
+}
+
+/// Pushes a batch of decoded records, the first of which is point `done`; returns how many
+/// lie outside the header's bounds (kept in a LAS, an error in a LAZ).
+fn decode_batch(
+    b: &mut CloudBuilder,
+    pd: &PointData,
+    guard: &BoundsGuard,
+    done: u64,
+    name: &str,
+    fname: &'static str,
+) -> Result<u64, ReadError> {
+    let mut outside = 0;
+    let mut times = pd.gps_time();
+    for (i, (((x, y), z), id)) in pd
+        .x()
+        .zip(pd.y())
+        .zip(pd.z())
+        .zip(pd.point_source_id())
+        .enumerate()
+    {
+        let p = [x, y, z];
+        // Out-of-bounds points in a LAZ mean a damaged chunk decoded to garbage; in a
+        // plain LAS the integers are what was written, and stale header bounds are common
+        // in real files, so those points are kept and the details say so.
+        if !guard.contains(p) && fname == "las" {
+            outside += 1;
+        } else if !guard.contains(p) {
+            return Err(ReadError::at(
+                name,
+                fname,
+                format!(
+                    "({x}, {y}, {z}) lies outside the header's bounding box; the point data is corrupt{}",
+                    " (a damaged compressed chunk?)"
+                ),
+                format!("point {}", done + i as u64),
+            ));
+        }
+        let slot = b
+            .scan_slot(u32::from(id))
+            .map_err(|why| ReadError::named(name, fname, why))?;
+        let t = times.as_mut().and_then(|t| t.next());
+        b.push(p, Some(slot), t);
+    }
+    Ok(outside)
+}
+
+/// Uncompressed LAS on several threads: batches are read exactly as [`decode_las`] reads
+/// them, `group` at a time, and each group's batches are decoded in parallel into parts that
+/// are then appended in order, so the cloud and every error are those of the serial read.
+fn decode_las_groups<R>(
+    source: R,
+    name: &str,
+    options: &ReadOptions,
+    plan: &HeaderCheck,
+    batch: u64,
+    group: usize,
+) -> Result<PointCloud, ReadError>
+where
+    R: Read + Seek + Send + Sync + 'static,
+{
+    let fname = plan.format;
+    let err = |e: las::Error| ReadError::named(name, fname, e.to_string());
+    let mut reader = open_reader(source, plan, false).map_err(err)?;
+    let header = reader.header().clone();
+    let count = header.number_of_points();
+    // The header check confirmed the count against the file's size: reserve it exactly.
+    let mut b = CloudBuilder::new(fname, count as usize, None, options.keep_time);
+    let guard = BoundsGuard::new(&header);
+    let mut pds: Vec<PointData> = (0..group.max(1))
+        .map(|_| PointDataBuilder::new().for_header(&header).build())
+        .collect();
+    let mut done = 0u64;
+    let mut outside = 0u64;
+    loop {
+        let start = done;
+        let mut filled = 0;
+        for pd in &mut pds {
+            let n = fill(&mut reader, batch, pd, done, count, name, fname)?;
+            if n == 0 {
+                break;
+            }
+            done += n;
+            filled += 1;
+        }
+        if filled == 0 {
+            break;
+        }
+        let read = &pds[..filled];
+        // Batch k starts at point `start + k * batch`: every batch but the last is full.
+        let first_point = |k: usize| start + k as u64 * batch;
+        // The first finite point fixes the local frame every part needs.
+        let mut k0 = 0;
+        while !b.has_origin() && k0 < filled {
+            outside += decode_batch(&mut b, &read[k0], &guard, first_point(k0), name, fname)?;
+            k0 += 1;
+        }
+        let parts: Vec<Result<(CloudBuilder, u64), ReadError>> = read[k0..]
+            .par_iter()
+            .enumerate()
+            .map(|(k, pd)| {
+                let mut part = b.part(pd.len());
+                let o = decode_batch(&mut part, pd, &guard, first_point(k0 + k), name, fname)?;
+                Ok((part, o))
+            })
+            .collect();
+        for part in parts {
+            let (part, o) = part?;
+            b.absorb(&part)
+                .map_err(|why| ReadError::named(name, fname, why))?;
+            outside += o;
+        }
+    }
+    finish_las(b, &header, done, count, outside, name, fname)
+}
+
+/// Checks every point came, and records the CRS and what was read.
+fn finish_las(
+    mut b: CloudBuilder,
+    header: &las::Header,
+    done: u64,
+    count: u64,
+    outside: u64,
+    name: &str,
+    fname: &'static str,
+) -> Result<PointCloud, ReadError> {
     if done < count {
         return Err(ReadError::at(
             name,
@@ -157,8 +273,8 @@ where
             format!("point {done}"),
         ));
     }
-    let crs = crs_of(&header);
-    let mut details = describe(&header, crs.as_ref().map(|c| c.1));
+    let crs = crs_of(header);
+    let mut details = describe(header, crs.as_ref().map(|c| c.1));
     if outside > 0 {
         details +=
             &format!("; {outside} points lie outside the header's bounding box (stale bounds)");
@@ -677,6 +793,104 @@ fn describe(header: &las::Header, crs_from: Option<&str>) -> String {
 mod tests {
     use super::*;
     use std::io::Cursor;
+
+    /// A source that fails once `limit` bytes have been read, as a failing disk would.
+    struct Failing {
+        inner: Cursor<Vec<u8>>,
+        limit: u64,
+    }
+
+    impl Read for Failing {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            if self.inner.position() >= self.limit {
+                return Err(std::io::Error::other("the disk failed"));
+            }
+            let room = (self.limit - self.inner.position()) as usize;
+            let n = buf.len().min(room);
+            self.inner.read(&mut buf[..n])
+        }
+    }
+
+    impl Seek for Failing {
+        fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
+            self.inner.seek(pos)
+        }
+    }
+
+    #[test]
+    fn parallel_las_reads_exactly_the_serial_points_and_errors() {
+        // Three batches of `CHUNK`, the last one short.
+        let n = 150_011;
+        let mut c = PointCloud {
+            origin: [500_000.0, 5_400_000.0, 0.0],
+            scan_ids: vec![4, 9, 2, 7],
+            ..Default::default()
+        };
+        for i in 0..n {
+            let f = i as f32;
+            c.xyz
+                .push([f * 0.001, (f * 0.37).sin() * 20.0, (i % 300) as f32 * 0.01]);
+            // Scans in runs that come back, so parts meet scans in another order.
+            c.scan.push(((i / 3_001) % 4) as u16);
+            c.time.push(i as f64 * 1e-3);
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.las");
+        crate::io::export::write_las(&path, &c, false).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let len = bytes.len() as u64;
+        let serial = read_las_with(
+            Cursor::new(bytes.clone()),
+            len,
+            "t.las",
+            &ReadOptions::default(),
+            false,
+        )
+        .unwrap();
+        assert_eq!(serial.len(), n);
+        let bits = |c: &PointCloud| -> Vec<[u32; 3]> {
+            c.xyz.iter().map(|p| p.map(f32::to_bits)).collect()
+        };
+        let groups = |batch: u64, group: usize| {
+            let mut source = Cursor::new(bytes.clone());
+            let plan = check_header(&mut source, len, "t.las").unwrap();
+            decode_las_groups(
+                source,
+                "t.las",
+                &ReadOptions::default(),
+                &plan,
+                batch,
+                group,
+            )
+        };
+        for (batch, group) in [(13, 3), (1_000, 8), (4_099, 5), (CHUNK, 4), (n as u64, 2)] {
+            let parallel = groups(batch, group).unwrap();
+            assert!(bits(&serial) == bits(&parallel), "points differ");
+            assert_eq!(serial.scan, parallel.scan);
+            assert_eq!(serial.scan_ids, parallel.scan_ids);
+            assert_eq!(serial.time, parallel.time);
+            assert_eq!(serial.origin, parallel.origin);
+            assert_eq!(serial.source, parallel.source);
+        }
+        // A read that fails part way names the same points whether decoded in parallel or not.
+        let failing = || Failing {
+            inner: Cursor::new(bytes.clone()),
+            limit: len - 40_000,
+        };
+        let serial = read_las_with(failing(), len, "t.las", &ReadOptions::default(), false)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            serial.contains("points 131072 to 150010 of 150011"),
+            "{serial}"
+        );
+        let plan = check_header(&mut failing(), len, "t.las").unwrap();
+        let parallel =
+            decode_las_groups(failing(), "t.las", &ReadOptions::default(), &plan, CHUNK, 3)
+                .unwrap_err()
+                .to_string();
+        assert_eq!(parallel, serial);
+    }
 
     #[test]
     fn parallel_laz_reads_exactly_the_serial_points() {
