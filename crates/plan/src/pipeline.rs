@@ -215,11 +215,15 @@ pub fn plan(
         )?;
         // Timed with sampling.
         if plain {
+            let escape = story.open_space_max_escape(params.viewpoints.open_space_max_escape);
             let placed = viewpoints::open_space::place(
                 &cloud.xyz,
                 story,
                 &mut samples,
-                &params.viewpoints,
+                &viewpoints::ViewpointsParams {
+                    open_space_max_escape: escape,
+                    ..params.viewpoints.clone()
+                },
                 p.max_range,
             );
             open_space.borrow_mut().push(placed);

@@ -102,13 +102,28 @@ impl Story {
         above_floor && z < self.z_max && (!self.flat_ceiling || z <= self.top_z)
     }
 
+    /// The share of directions from a pseudo-viewpoint that may escape the wall samples, given
+    /// `given` for stories whose floor was seen. A capture without a floor (a phone held up to
+    /// the ceiling) sees walls only in part, missing corners and low walls, so more directions
+    /// escape through the gaps; its ceiling, which a place must be under, still says where the
+    /// room is.
+    pub fn open_space_max_escape(&self, given: f64) -> f64 {
+        if self.floor_seen {
+            given
+        } else {
+            given.max(FLOORLESS_MAX_ESCAPE)
+        }
+    }
+
     /// What was assumed about this story's floor and ceiling, for the plan's notes (heights in
     /// the local frame plus `z0`).
     pub fn assumptions(&self, z0: f64) -> Vec<String> {
         let mut notes = Vec::new();
         if !self.floor_seen {
             notes.push(format!(
-                "no floor was seen; the floor is assumed at the lowest points, z {:.2}",
+                "no floor was seen; the floor is assumed at the lowest points, z {:.2}. The \
+                 outline rests on the walls seen under the ceiling; where none was seen it is \
+                 closed by straight edges between the walls that were, or on along their lines",
                 self.floor_z + z0
             ));
         }
@@ -129,6 +144,11 @@ impl Story {
         notes
     }
 }
+
+/// The least share of escaping directions a pseudo-viewpoint may have in a story whose floor
+/// was not seen. The phone rooms' walls leave gaps of 1.5-3 m at corners, through which about a
+/// quarter of the directions from the room's middle escape.
+const FLOORLESS_MAX_ESCAPE: f64 = 0.3;
 
 /// A scanner head may stand this far below a story's floor and still be in it (a pose given
 /// at the tripod's foot, or a floor found a little high).

@@ -13,7 +13,7 @@ use asbuilt_plan::cloud::{PointCloud, Viewpoints};
 use asbuilt_plan::evaluate::{evaluate, EvaluateParams, Evaluation};
 use asbuilt_plan::io::{ply, poses, read_cloud};
 use asbuilt_plan::progress::NoProgress;
-use asbuilt_plan::simulate::{simulate, BuildingKind, ScanOptions, Simulation};
+use asbuilt_plan::simulate::{simulate, BuildingKind, Keep, ScanOptions, Simulation};
 use asbuilt_plan::{FloorPlan, Params};
 
 fn scan(kind: BuildingKind, options: ScanOptions) -> Simulation {
@@ -449,6 +449,47 @@ fn a_ceiling_only_capture_plans_from_its_walls_and_says_the_floor_was_assumed() 
             plan.notes
         );
     }
+}
+
+/// Bounds for the phone capture without ids, with noise (measured: see the test).
+const PHONE_IOU: f64 = 0.98;
+const PHONE_P95: f64 = 0.03;
+const PHONE_COMPLETENESS: f64 = 0.9;
+
+#[test]
+fn a_phone_capture_without_ids_and_with_noise_plans_within_bounds_and_valid() {
+    // The consumer-LiDAR rooms come as plain x, y, z with a phone's centimetre noise: no scan
+    // ids, no poses. Walls are seen down to 1.5-2.5 m and the ceiling only near the phone.
+    let sim = scan(
+        BuildingKind::CeilingOnly,
+        ScanOptions {
+            points: 300_000,
+            seed: 35,
+            noise: 0.01,
+            keep: Keep::Plain,
+            ..Default::default()
+        },
+    );
+    let (plan, e) = plan_and_score(&sim.cloud, &sim, &Params::default());
+    let problems = asbuilt_plan::validity::plan_problems(&plan);
+    assert!(problems.is_empty(), "{problems:?}");
+    let doc = asbuilt_plan::io::geojson::to_geojson(&plan);
+    if let Some(verdicts) = geos::geos_validity(&[doc]) {
+        let invalid = geos::invalid_stories(&["phone capture".to_string()], &verdicts);
+        assert!(invalid.is_empty(), "invalid by GEOS: {invalid:?}");
+    }
+    assert_class(
+        &e,
+        "phone capture",
+        PHONE_IOU,
+        PHONE_P95,
+        PHONE_COMPLETENESS,
+    );
+    assert!(
+        plan.notes.iter().any(|n| n.contains("no floor was seen")),
+        "{:?}",
+        plan.notes
+    );
 }
 
 #[test]

@@ -8,6 +8,7 @@
 
 mod bounds;
 mod cell;
+mod coverage;
 pub(crate) mod grid;
 mod spacing;
 mod threshold;
@@ -161,6 +162,26 @@ pub enum SamplesError {
         level: usize,
         /// What the cells showed.
         why: String,
+    },
+    /// No floor was seen, and the walls were seen along too little of the outline they enclose
+    /// for it to be more than a guess.
+    #[error(
+        "story {level}: no floor was seen, and walls were seen along only {seen:.1} m of the \
+         {around:.1} m around them (less than {share:.0} %); the rest of the outline would be \
+         guessed. The capture needs more of the walls, down to about {reach:.1} m under the \
+         ceiling"
+    )]
+    FewWallsSeen {
+        /// The story's level.
+        level: usize,
+        /// Metres of wall sampled.
+        seen: f64,
+        /// Perimeter of the samples' convex hull, metres.
+        around: f64,
+        /// The least share seen, per cent.
+        share: f64,
+        /// How far under the ceiling a wall must be seen, metres.
+        reach: f64,
     },
     /// The run was stopped from outside.
     #[error(transparent)]
@@ -366,6 +387,18 @@ pub(crate) fn finish_samples(
             level: story.level,
             why,
         });
+    }
+    if !story.floor_seen {
+        let (seen, around) = coverage::seen_and_around(&samples, params.cell_size);
+        if seen < coverage::MIN_SEEN_SHARE * around {
+            return Err(SamplesError::FewWallsSeen {
+                level: story.level,
+                seen,
+                around,
+                share: coverage::MIN_SEEN_SHARE * 100.0,
+                reach: cell::FLOORLESS_REACH * params.min_wall_height,
+            });
+        }
     }
     Ok(WallSamples {
         samples,

@@ -66,8 +66,8 @@ pub struct StoryModel {
     /// levels see into each other (galleries, double-height rooms, roofs): their floors and
     /// ceilings are patches, and every story holds the whole building's surfaces.
     pub slabs: bool,
-    /// Points below this height are not recorded: a capture aimed at the ceiling.
-    pub capture_above: Option<f64>,
+    /// What a capture aimed at the ceiling records; `None` records every hit.
+    pub capture: Option<super::phone::Capture>,
     pub surfaces: Vec<Surface>,
     pub patches: Vec<Patch>,
     /// Static scanner stations (x, y); the scanner head stands 1.5 m above the floor.
@@ -109,7 +109,8 @@ pub enum BuildingKind {
     DenseOffice,
     /// [`BuildingKind::DenseOffice`], its cloud reduced to the centres of occupied 8 cm voxels.
     DenseOfficeVoxels,
-    /// An L-shaped room captured from the ceiling down to 1.5 m only: no floor.
+    /// An L-shaped room captured as a phone held up to its ceiling captures it: no floor, walls
+    /// seen down to 1.5-2.5 m, the ceiling only near the phone's path, hanging lights.
     CeilingOnly,
     /// Rooms divided by 10 cm partitions, 1.2 m × 1.5 m closets, a bathroom and a stub wall.
     Partitions,
@@ -272,7 +273,7 @@ impl RectStory {
             floor_z: f,
             ceiling_z: c,
             slabs: true,
-            capture_above: None,
+            capture: None,
             surfaces: parts.surfaces,
             patches: parts.patches,
             stations: self.stations,
@@ -528,7 +529,7 @@ fn curved_lobby() -> StoryModel {
         floor_z: f,
         ceiling_z: c,
         slabs: true,
-        capture_above: None,
+        capture: None,
         surfaces,
         patches: Vec::new(),
         stations: vec![

@@ -14,6 +14,7 @@
 
 pub(crate) mod buildings;
 mod multilevel;
+pub mod phone;
 pub mod random;
 pub(crate) mod rects;
 pub(crate) mod rooms;
@@ -321,7 +322,11 @@ fn scan_static(building: &Building, o: &ScanOptions) -> PointCloud {
             let (sin, cos) = s.error_yaw.sin_cos();
             (0..n)
                 .filter_map(|_| scanner::measure(s.story, s.position, &mut rng, noise.as_ref()))
-                .filter(|p| s.story.capture_above.is_none_or(|z| p[2] >= z))
+                .filter(|p| {
+                    s.story
+                        .capture
+                        .is_none_or(|c| c.keeps(*p, s.position, s.story.ceiling_z))
+                })
                 .map(|p| {
                     let v = [p[0] - s.position[0], p[1] - s.position[1]];
                     [
@@ -433,8 +438,11 @@ fn scan_mobile(building: &Building, o: &ScanOptions) -> PointCloud {
                 let f = (i as f64 + 0.5) / n as f64;
                 let (xy, _) = along(&story.route, f * d * MOBILE_SPEED);
                 let origin = [xy[0], xy[1], story.floor_z + MOBILE_HEIGHT];
-                let p = scanner::measure(story, origin, &mut rng, noise.as_ref())
-                    .filter(|p| story.capture_above.is_none_or(|z| p[2] >= z));
+                let p = scanner::measure(story, origin, &mut rng, noise.as_ref()).filter(|p| {
+                    story
+                        .capture
+                        .is_none_or(|c| c.keeps(*p, origin, story.ceiling_z))
+                });
                 if let Some(p) = p {
                     xyz.push(p.map(|c| c as f32));
                     time.push(t0 + f * d);
@@ -579,6 +587,39 @@ mod tests {
         let low = rooms::CEILING_CAPTURE_ABOVE as f32;
         assert!(sim.cloud.xyz.iter().all(|p| p[2] >= low));
         assert!(sim.cloud.len() > 5_000);
+        // Walls are seen lower in some places than in others.
+        let wall = |p: &&[f32; 3]| p[2] < 3.0;
+        let lowest = sim
+            .cloud
+            .xyz
+            .iter()
+            .filter(wall)
+            .map(|p| p[2])
+            .fold(9.0, f32::min);
+        assert!(lowest < 1.6, "{lowest}");
+        let Viewpoints::Static(poses) = &sim.scanners else {
+            panic!("static poses")
+        };
+        // The ceiling is there only near the phone; nothing lies farther from it.
+        let reach = |p: &[f32; 3]| {
+            poses
+                .iter()
+                .map(|s| (p[0] as f64 - s.position[0]).hypot(p[1] as f64 - s.position[1]))
+                .fold(f64::MAX, f64::min)
+        };
+        let ceiling: Vec<f64> = sim
+            .cloud
+            .xyz
+            .iter()
+            .filter(|p| p[2] > 3.95)
+            .map(reach)
+            .collect();
+        assert!(ceiling.len() > 1_000);
+        assert!(ceiling
+            .iter()
+            .all(|&d| d <= rooms::CEILING_CAPTURE_REACH + 1e-3));
+        // The walls run on beyond it.
+        assert!(sim.cloud.xyz.iter().filter(wall).any(|p| reach(p) > 4.0));
     }
 
     #[test]

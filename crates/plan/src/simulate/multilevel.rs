@@ -49,7 +49,7 @@ fn story(
         floor_z,
         ceiling_z,
         slabs: false,
-        capture_above: None,
+        capture: None,
         surfaces: surfaces.to_vec(),
         patches: patches.to_vec(),
         stations: rects.stations,

@@ -433,7 +433,7 @@ fn into_model(l: Layout, ceiling: f64) -> StoryModel {
         floor_z: f,
         ceiling_z: c,
         slabs: true,
-        capture_above: None,
+        capture: None,
         surfaces,
         patches,
         stations: l.stations,

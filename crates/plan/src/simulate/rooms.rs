@@ -1,7 +1,8 @@
 //! Buildings of many small rooms: a dense office (about 30 rooms a story), a floor of thin
-//! partitions, closets and a bathroom, and a room captured from its ceiling down to 1.5 m only.
+//! partitions, closets and a bathroom, and a room captured by a phone held up to its ceiling.
 
-use super::buildings::{transform, RectStory, StoryModel};
+use super::buildings::{transform, Patch, RectStory, StoryModel};
+use super::phone::Capture;
 use super::rects::Rect;
 
 /// Story height of the dense office, floor to floor, and its rooms' ceiling height.
@@ -150,12 +151,20 @@ pub(super) fn partitions_story() -> StoryModel {
     s.into_model()
 }
 
-/// Points below this height are not captured by [`ceiling_only_story`]'s scanner.
+/// Points below this height are never captured by [`ceiling_only_story`]'s scanner.
 pub const CEILING_CAPTURE_ABOVE: f64 = 1.5;
+/// Where the phone was held higher, its walls are seen from up to this much higher still.
+pub const CEILING_CAPTURE_SWING: f64 = 1.0;
+/// The ceiling is captured only this far, horizontally, from where the phone was.
+pub const CEILING_CAPTURE_REACH: f64 = 3.0;
+/// Light panels hang this far under the ceiling: a dense level below it, as a suspended grid.
+const LIGHTS_BELOW: f64 = 0.9;
 
-/// An L-shaped room 4 m high, rotated 33°, captured from its ceiling down to 1.5 m only, as a
-/// phone held up for ceiling-based localisation captures it: no floor in the cloud, 2.5 m of
-/// wall.
+/// An L-shaped room 4 m high, rotated 33°, captured as a phone held up for ceiling-based
+/// localisation captures it, like the consumer-LiDAR rooms of the real data: no floor in the
+/// cloud; walls seen from the ceiling down to 1.5-2.5 m above the floor, the height changing
+/// along them; the ceiling captured only within 3 m of where the phone was, so its far corners
+/// are missing while their walls are there; and light panels hanging 0.9 m under it.
 pub(super) fn ceiling_only_story() -> StoryModel {
     let s = RectStory {
         floor_z: 0.0,
@@ -172,7 +181,23 @@ pub(super) fn ceiling_only_story() -> StoryModel {
         ],
         ..Default::default()
     };
-    let mut model = transform(s.into_model(), 33f64.to_radians(), [2.0, -1.0]);
-    model.capture_above = Some(CEILING_CAPTURE_ABOVE);
+    let mut model = s.into_model();
+    let lights = [
+        Rect::new(1.5, 1.5, 2.1, 2.7),
+        Rect::new(5.0, 1.5, 5.6, 2.7),
+        Rect::new(5.0, 3.8, 5.6, 5.0),
+        Rect::new(1.2, 6.6, 1.8, 7.8),
+    ];
+    model.patches.extend(
+        lights
+            .into_iter()
+            .map(|r| Patch::from_rect(r, model.ceiling_z - LIGHTS_BELOW)),
+    );
+    let mut model = transform(model, 33f64.to_radians(), [2.0, -1.0]);
+    model.capture = Some(Capture {
+        above: CEILING_CAPTURE_ABOVE,
+        swing: CEILING_CAPTURE_SWING,
+        ceiling_reach: CEILING_CAPTURE_REACH,
+    });
     model
 }
