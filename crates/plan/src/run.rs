@@ -335,6 +335,7 @@ mod tests {
             params: &params,
             stream: None,
             max_points: None,
+            georeference: None,
         };
         let mut seen = Recorded::default();
         let planned = plan_scan(&scan, &mut seen).unwrap();
