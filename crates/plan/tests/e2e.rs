@@ -423,13 +423,15 @@ fn dense_office_as_8_cm_voxels_plans_at_a_coarser_cell() {
     // Walls, floors and ceilings snap to voxel centres up to 4 cm off: the boundary and the
     // heights cannot be closer than that.
     // Completeness was 0.82: a room face that growing gave to the corridor face's model, 8 cm
-    // away across the wall, took the wall between two doors out of the plan.
-    assert_class(&with, "voxel office with poses", 0.97, 0.045, 0.88);
+    // away across the wall, took the wall between two doors out of the plan. Then 0.89: the
+    // two faces share 10 cm cells, so each kept about half its samples, too few for a model;
+    // labeling now fills the short holes of a straight row (0.94).
+    assert_class(&with, "voxel office with poses", 0.975, 0.045, 0.93);
     assert!(with.max_height_error() <= 0.045, "{}", with.summary());
     // Without poses or scan ids the plan rests on pseudo-viewpoints in open space: IoU 0.90
     // (geometry alone) became 0.97 and p95 0.44 m became 4 cm, but completeness at 5 cm fell
-    // from 0.85 to 0.79 (0.82 with poses).
-    assert_class(&without, "voxel office without poses", 0.95, 0.045, 0.75);
+    // from 0.85 to 0.79 (0.82 with poses); filling the holes of sample rows made it 0.92.
+    assert_class(&without, "voxel office without poses", 0.975, 0.045, 0.91);
 }
 
 #[test]

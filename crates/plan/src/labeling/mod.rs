@@ -2,6 +2,7 @@
 //! labeling. See `shared/design/eigencrust-2d.md` for the derivation.
 //!
 //! - `mesh`: spade Delaunay of the samples plus four box corners.
+//! - `gaps`: vertices filled into short holes of straight rows of samples (beyond the paper).
 //! - `weights`: poles and the signed edge weights (eq. (1) for adjacent poles).
 //! - `walk`: exact straight-line walks (point location, lines of sight, the mobile path).
 //! - `constraints`: forced inside/outside triangles.
@@ -9,6 +10,7 @@
 //!   Lanczos on one sparse Cholesky factor) and the harmonic solution from the same factor.
 
 mod constraints;
+mod gaps;
 pub(crate) mod mesh;
 mod spectral;
 mod walk;
@@ -145,8 +147,10 @@ pub enum Method {
 pub struct LabelingReport {
     /// Triangles (graph nodes), including the box-corner ones.
     pub triangles: usize,
-    /// Distinct samples triangulated.
+    /// Distinct samples triangulated, the filled vertices among them.
     pub samples: usize,
+    /// Vertices filled into short holes of straight rows of samples (see `gaps`).
+    pub filled: usize,
     /// Positive (same-side) edges.
     pub positive_edges: usize,
     /// Negative edges between poles sharing an edge (eq. (1)).
@@ -230,14 +234,22 @@ pub fn label_with_report(
         }
     };
     let mut timings = LabelingTimings::default();
-    let points: Vec<_> = samples.samples.iter().map(|s| s.pos).collect();
-    let normals: Vec<_> = samples.samples.iter().map(|s| s.normal).collect();
-    let mesh = match Mesh::build(&points, &normals) {
+    let mut points: Vec<_> = samples.samples.iter().map(|s| s.pos).collect();
+    let mut normals: Vec<_> = samples.samples.iter().map(|s| s.normal).collect();
+    let mut mesh = match Mesh::build(&points, &normals) {
         Err(MeshError::TooFewSamples(n)) => return Err(LabelingError::TooFewSamples(n)),
         other => other?,
     };
     if collinear(&mesh.vertices[..mesh.n_samples]) {
         return Err(LabelingError::Collinear(mesh.n_samples));
+    }
+    let (added, added_normals) = gaps::fill(&mesh);
+    let filled = added.len();
+    if filled > 0 {
+        // The filled vertices lie on segments between samples: the mesh only gains vertices.
+        points.extend(added);
+        normals.extend(added_normals);
+        mesh = Mesh::build(&points, &normals)?;
     }
     timings.mesh_ms = lap();
     cancel.check()?;
@@ -259,6 +271,7 @@ pub fn label_with_report(
     let mut report = LabelingReport {
         triangles: nt,
         samples: mesh.n_samples,
+        filled,
         positive_edges: graph.edges.iter().filter(|e| e.2 > 0.0).count(),
         negative_adjacent: graph.negative_adjacent,
         negative_apart: graph.negative_apart,
