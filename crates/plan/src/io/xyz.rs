@@ -399,7 +399,7 @@ impl Part {
 }
 
 /// Cuts whole lines into about `parts` pieces of similar size.
-fn cut_lines(text: &[u8], parts: usize) -> Vec<&[u8]> {
+pub(super) fn cut_lines(text: &[u8], parts: usize) -> Vec<&[u8]> {
     let mut pieces = Vec::with_capacity(parts);
     let mut start = 0;
     for k in 1..parts {

@@ -30,6 +30,8 @@ const CHUNK_VERTICES: usize = 1 << 16;
 /// Binary vertices are read in blocks of this many chunks per thread, each block decoded in
 /// as many parts as threads.
 const CHUNKS_PER_THREAD: usize = 4;
+/// ASCII vertices are read in blocks of about this many bytes per vertex of a binary block.
+const ASCII_BYTES_PER_VERTEX: usize = 32;
 /// Never reserve room for more points than this up front. Counts below it are reserved exactly
 /// (after the file's size has confirmed them), so the arrays never grow by doubling.
 const MAX_RESERVE: usize = 1 << 30;
@@ -400,7 +402,10 @@ impl<R: BufRead> Body<'_, R> {
         sink: &mut Sink,
     ) -> Result<(), ReadError> {
         match (self.header.encoding, vertex.fixed_size()) {
-            (Encoding::Ascii, _) => self.read_ascii_vertices(vertex, layout, sink),
+            (Encoding::Ascii, _) if self.split.parts > 1 => {
+                self.read_ascii_split(vertex, layout, sink)
+            }
+            (Encoding::Ascii, _) => self.read_ascii_vertices(vertex, layout, sink, 0, vertex.count),
             (_, Some(size)) => self.read_fixed_vertices(vertex, size, layout, sink),
             (_, None) => {
                 let mut scratch = Vec::new();
@@ -447,14 +452,17 @@ impl<R: BufRead> Body<'_, R> {
         Ok(())
     }
 
+    /// ASCII vertices `first..first + n` of `vertex`, one a line.
     fn read_ascii_vertices(
         &mut self,
         vertex: &Element,
         layout: Layout,
         sink: &mut Sink,
+        first: u64,
+        n: u64,
     ) -> Result<(), ReadError> {
         let mut values = Vec::with_capacity(vertex.properties.len());
-        for k in 0..vertex.count {
+        for k in first..first + n {
             self.next_line(&|| format!("vertex {k} of {}", vertex.count))?;
             values.clear();
             let mut tokens = self.text.split_ascii_whitespace();
@@ -512,6 +520,125 @@ impl<R: BufRead> Body<'_, R> {
         Ok(())
     }
 
+    /// ASCII vertices read a block of whole lines at a time, each block parsed in parallel
+    /// pieces; exactly the serial read's points and errors. A piece is parsed ahead only as
+    /// far as its lines parse cleanly; the rest of it, and a piece whose scans would not fit,
+    /// is read by the serial code.
+    fn read_ascii_split(
+        &mut self,
+        vertex: &Element,
+        layout: Layout,
+        sink: &mut Sink,
+    ) -> Result<(), ReadError> {
+        let block = self
+            .split
+            .block
+            .max(1)
+            .saturating_mul(ASCII_BYTES_PER_VERTEX);
+        let parts = self.split.parts.max(1);
+        let mut done = 0u64;
+        let mut text = Vec::new();
+        while done < vertex.count {
+            let want = vertex.count - done;
+            let (lines, ended) = self.take_lines(&mut text, want, block);
+            let partial = !text.is_empty() && !text.ends_with(b"\n");
+            if partial && !ended {
+                // A read failed inside a line: whole lines only; the serial read meets the error.
+                let whole = text.iter().rposition(|&c| c == b'\n').map_or(0, |i| i + 1);
+                text.truncate(whole);
+            }
+            // At the end, a last line without its newline is a line too, as `read_line` reads it.
+            let mut n = lines + u64::from(partial && ended);
+            if n == 0 {
+                // The input ended or failed here: the serial read says how.
+                return self.read_ascii_vertices(vertex, layout, sink, done, want);
+            }
+            let mut rest: &[u8] = &text;
+            // The first kept point fixes the local frame every piece needs.
+            while sink.origin.is_none() && n > 0 {
+                self.ascii_serial(&mut rest, vertex, layout, sink, done, 1)?;
+                done += 1;
+                n -= 1;
+            }
+            let pieces = crate::io::xyz::cut_lines(rest, parts);
+            let origin = sink.origin;
+            let parsed: Vec<(Sink, u64, usize)> = pieces
+                .par_iter()
+                .map(|piece| ascii_piece(piece, vertex, layout, origin))
+                .collect();
+            for (piece, (part, taken, bytes)) in pieces.iter().zip(parsed) {
+                let lines = piece.iter().filter(|&&c| c == b'\n').count() as u64
+                    + u64::from(!piece.ends_with(b"\n"));
+                let (mut tail, mut left) = (*piece, lines);
+                if sink.absorb(&part) {
+                    self.line += taken;
+                    self.offset += bytes as u64;
+                    done += taken;
+                    tail = &piece[bytes..];
+                    left -= taken;
+                }
+                self.ascii_serial(&mut tail, vertex, layout, sink, done, left)?;
+                done += left;
+            }
+        }
+        Ok(())
+    }
+
+    /// Moves whole lines into `text` (cleared first): at most `want`, and about `block` bytes
+    /// unless a line is longer. Returns the newlines taken, and whether the input ended; a
+    /// read error stops early, for the serial read to meet.
+    fn take_lines(&mut self, text: &mut Vec<u8>, want: u64, block: usize) -> (u64, bool) {
+        text.clear();
+        let mut lines = 0u64;
+        while lines < want && (text.len() < block || !text.ends_with(b"\n")) {
+            let Ok(avail) = self.reader.fill_buf() else {
+                break;
+            };
+            if avail.is_empty() {
+                return (lines, true);
+            }
+            let mut take = avail.len();
+            for (i, &c) in avail.iter().enumerate() {
+                if c == b'\n' {
+                    lines += 1;
+                    if lines == want || (text.len() + i >= block) {
+                        take = i + 1;
+                        break;
+                    }
+                }
+            }
+            text.extend_from_slice(&avail[..take]);
+            self.reader.consume(take);
+        }
+        (lines, false)
+    }
+
+    /// The serial read of vertices `first..first + n` from `text`, keeping this reader's place.
+    fn ascii_serial(
+        &mut self,
+        text: &mut &[u8],
+        vertex: &Element,
+        layout: Layout,
+        sink: &mut Sink,
+        first: u64,
+        n: u64,
+    ) -> Result<(), ReadError> {
+        let mut body = Body {
+            path: self.path,
+            header: self.header,
+            reader: text,
+            offset: self.offset,
+            line: self.line,
+            text: std::mem::take(&mut self.text),
+            split: Split::SERIAL,
+        };
+        let result = body.read_ascii_vertices(vertex, layout, sink, first, n);
+        self.offset = body.offset;
+        self.line = body.line;
+        self.text = body.text;
+        result
+    }
+
     fn push(
         &self,
         sink: &mut Sink,
@@ -534,6 +661,75 @@ impl<R: BufRead> Body<'_, R> {
             )
         })
     }
+}
+
+/// The ASCII vertex lines at the start of `piece` that parse cleanly, into a sink of their
+/// own in the frame `origin`: the sink, the lines taken and their bytes.
+fn ascii_piece(
+    piece: &[u8],
+    vertex: &Element,
+    layout: Layout,
+    origin: Option<[f64; 3]>,
+) -> (Sink, u64, usize) {
+    let mut part = Sink::new((piece.len() / 24) as u64, layout);
+    part.origin = origin;
+    let mut values = Vec::with_capacity(vertex.properties.len());
+    let (mut taken, mut pos) = (0u64, 0usize);
+    while pos < piece.len() {
+        let end = piece[pos..]
+            .iter()
+            .position(|&c| c == b'\n')
+            .map_or(piece.len(), |i| pos + i + 1);
+        let Ok(line) = std::str::from_utf8(&piece[pos..end]) else {
+            break;
+        };
+        if !ascii_values(line, vertex, &mut values) {
+            break;
+        }
+        let get = |i: usize| values[i];
+        let pushed = part.push(
+            layout.xyz.map(get),
+            layout.scan.map(get),
+            layout.time.map(get),
+        );
+        if pushed.is_err() {
+            break;
+        }
+        taken += 1;
+        pos = end;
+    }
+    (part, taken, pos)
+}
+
+/// A vertex line's values as the serial read takes them (a list's is NaN); false where the
+/// serial read would fail.
+fn ascii_values(line: &str, vertex: &Element, values: &mut Vec<f64>) -> bool {
+    values.clear();
+    let mut tokens = line.split_ascii_whitespace();
+    let mut next = || tokens.next().and_then(parse_number);
+    for p in &vertex.properties {
+        match p.kind {
+            Kind::Scalar(_) => match next() {
+                Some(v) => values.push(v),
+                None => return false,
+            },
+            Kind::List { .. } => {
+                let Some(n) = next() else {
+                    return false;
+                };
+                if !(n >= 0.0 && n.fract() == 0.0 && n <= 1.0e6) {
+                    return false;
+                }
+                for _ in 0..n as usize {
+                    if next().is_none() {
+                        return false;
+                    }
+                }
+                values.push(f64::NAN);
+            }
+        }
+    }
+    true
 }
 
 /// A decode's outcome: on error, the record's index and why.
@@ -758,6 +954,56 @@ mod tests {
                 same(&serial, &parallel);
             }
         }
+    }
+
+    /// Reads ASCII `text` serially and at several splits: the same cloud or the same error.
+    fn same_ascii(text: &[u8]) {
+        let serial = read(text, Split::SERIAL);
+        for (block, parts) in [(1, 2), (3, 3), (97, 2), (4_099, 5), (1 << 20, 2)] {
+            let parallel = read(text, Split { block, parts });
+            match (&serial, &parallel) {
+                (Ok(a), Ok(b)) => same(a, b),
+                (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string()),
+                _ => panic!("split {block}/{parts}: {serial:?} vs {parallel:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn parallel_ascii_pieces_read_exactly_the_serial_points_and_errors() {
+        for with_time in [false, true] {
+            let c = cloud(5_003, with_time);
+            let mut bytes = Vec::new();
+            write_ply_to(&mut bytes, &c, Encoding::Ascii).unwrap();
+            assert_eq!(read(&bytes, Split::SERIAL).unwrap().len(), 5_003 - 3 - 5);
+            same_ascii(&bytes);
+            // No newline after the last vertex.
+            same_ascii(bytes.strip_suffix(b"\n").unwrap());
+            // Damage late in the file: a word, a fractional scan index, bad UTF-8, a short
+            // line, and the file cut short.
+            let at = bytes.len() * 3 / 4;
+            let cut = at + bytes[at..].iter().position(|&b| b == b'\n').unwrap() + 1;
+            for bad in [&b"1 two 3 0"[..], b"1 2 3 0.5", b"1 2 \xff 0", b"1 2"] {
+                let mut broken = bytes[..cut].to_vec();
+                broken.extend_from_slice(bad);
+                broken.push(b'\n');
+                broken.extend_from_slice(&bytes[cut..]);
+                same_ascii(&broken);
+            }
+            same_ascii(&bytes[..cut]);
+            same_ascii(&bytes[..cut + 3]);
+        }
+        // Vertices with a list, then another element the vertex reader must not read.
+        let mut t = String::from(
+            "ply\nformat ascii 1.0\nelement vertex 400\nproperty float x\nproperty list uchar int n\n\
+             property float y\nproperty float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n",
+        );
+        for i in 0..400 {
+            t += &format!("{i}.5 2 7 8 {} 3\n", i % 7);
+        }
+        t += "3 0 1 2\n3 1 2 3\n";
+        same_ascii(t.as_bytes());
+        assert_eq!(read(t.as_bytes(), Split::SERIAL).unwrap().len(), 400);
     }
 
     #[test]
