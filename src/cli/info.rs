@@ -22,7 +22,7 @@ pub struct InfoArgs {
 
 pub fn run(args: InfoArgs) -> anyhow::Result<ExitCode> {
     let sidecar = super::plan::sidecar(args.poses.as_deref(), args.trajectory.as_deref());
-    let cloud = asbuilt_plan::io::read_scan(&args.input, sidecar, &args.read.options(true))?;
+    let cloud = asbuilt_plan::io::read_scan(&args.input, sidecar, &args.read.options())?;
     print!("{}", describe(&args.input.display().to_string(), &cloud));
     Ok(ExitCode::SUCCESS)
 }

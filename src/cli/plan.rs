@@ -181,13 +181,14 @@ pub struct ReadArgs {
 }
 
 impl ReadArgs {
-    /// The reader's options; times are kept only when a trajectory needs them.
-    pub fn options(&self, keep_time: bool) -> ReadOptions {
+    /// The reader's options. Point times are kept, as the service's worker keeps them: without
+    /// a trajectory they give the mobile scanner's estimated path. (A streamed run drops them
+    /// itself unless a trajectory is given.)
+    pub fn options(&self) -> ReadOptions {
         ReadOptions {
             scale: self.scale,
             scan_column: self.scan_column,
             format: self.format,
-            keep_time,
             ..ReadOptions::default()
         }
     }
@@ -215,7 +216,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
     let scan = Scan {
         cloud: &args.input,
         sidecar: sidecar(args.poses.as_deref(), args.trajectory.as_deref()),
-        read: args.read.options(args.trajectory.is_some()),
+        read: args.read.options(),
         params: &params,
         stream,
         max_points: None,
@@ -452,6 +453,15 @@ fn report_plan(plan: &FloorPlan, write_ms: u64, total_ms: u64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_cli_reads_points_as_the_worker_does() {
+        // The worker reads with the defaults: times kept, so a mobile scan without its
+        // trajectory plans the same in both.
+        let read = ReadArgs::default();
+        assert_eq!(read.options(), ReadOptions::default());
+        assert!(read.options().keep_time);
+    }
 
     #[test]
     fn multi_line_parser_errors_become_one_line() {
