@@ -182,7 +182,11 @@ async fn the_points_lie_under_the_plan_and_go_into_the_svg() {
     let Some(seen) = scenario("points", 0).await else {
         return;
     };
-    assert_eq!(seen["pixels"]["size"], serde_json::json!([50, 40]), "{seen}");
+    assert_eq!(
+        seen["pixels"]["size"],
+        serde_json::json!([50, 40]),
+        "{seen}"
+    );
     assert_eq!(seen["pixels"]["wall"][3], 255, "{seen}");
     assert_eq!(seen["svgLayer"], true, "{seen}");
     assert_eq!(seen["axe"], serde_json::json!([]), "{seen}");

@@ -236,7 +236,7 @@ fn read_reporting<T: Send>(
     std::thread::scope(|s| {
         let (done, finished) = mpsc::channel::<()>();
         let reader = std::thread::Builder::new()
-            .name("asbuilt-read-watch".into())
+            .name("asbuilt-read-scan".into())
             .stack_size(STACK)
             .spawn_scoped(s, move || {
                 let out = read();
