@@ -49,7 +49,7 @@ mod tests {
     fn the_lowest_height_swings_between_its_bounds_and_the_ceiling_ends_at_its_reach() {
         let c = Capture {
             above: 1.5,
-            swing: 1.0,
+            swing: 1.8,
             ceiling_reach: 3.0,
         };
         let lows: Vec<f64> = (0..200).map(|k| c.lowest([k as f64 * 0.05, 0.0])).collect();
