@@ -57,7 +57,7 @@ mod tests {
             .iter()
             .fold((f64::MAX, f64::MIN), |a, &v| (a.0.min(v), a.1.max(v)));
         assert!(
-            lo >= 1.5 && lo < 1.52 && hi <= 3.3 && hi > 3.28,
+            (1.5..1.52).contains(&lo) && hi <= 3.3 && hi > 3.28,
             "{lo} {hi}"
         );
         let at = [0.0, 0.0, 1.5];
