@@ -290,3 +290,58 @@ fn laz_without_its_sidecar_or_scan_ids_plans_close_to_the_plan_with_poses() {
     assert!(asbuilt_plan::validity::plan_problems(&xyz).is_empty());
     holds_the_scanners(&xyz);
 }
+
+/// The share of `samples` within `d` metres of a ring of `polygons`.
+fn near_outline(polygons: &[Polygon], samples: &[P2], d: f64) -> f64 {
+    let near = |p: P2| {
+        polygons
+            .iter()
+            .flat_map(|poly| std::iter::once(&poly.exterior).chain(&poly.holes))
+            .any(|ring| {
+                (0..ring.len()).any(|k| {
+                    let (a, b) = (ring[k], ring[(k + 1) % ring.len()]);
+                    asbuilt_plan::geom::point_segment_distance(p, a, b) <= d
+                })
+            })
+    };
+    samples.iter().filter(|&&p| near(p)).count() as f64 / samples.len().max(1) as f64
+}
+
+#[test]
+fn the_ipad_rooms_plan_from_their_walls_or_say_what_is_missing() {
+    let Some(dir) = folder() else { return };
+    let read =
+        |r: u32| io::read_cloud(&dir.join(format!("ipad-room{r}.ply"))).expect("a readable PLY");
+    for r in [430, 470, 808] {
+        let plan = asbuilt_plan::plan(&read(r), &Params::default(), &mut NoProgress)
+            .unwrap_or_else(|e| panic!("room {r}: {e}"));
+        let problems = asbuilt_plan::validity::plan_problems(&plan);
+        assert!(problems.is_empty(), "room {r}: {problems:?}");
+        assert_eq!(plan.stories.len(), 1, "room {r}");
+        let s = &plan.stories[0];
+        // One room, not pieces split off by chords across it (430 was 61.0 + 6.6 m²).
+        assert_eq!(s.spaces.rooms.len(), 1, "room {r}: {:?}", s.spaces.rooms);
+        assert!(
+            plan.notes.iter().any(|n| n.contains("no floor was seen")),
+            "room {r}: {:?}",
+            plan.notes
+        );
+        // The outline runs along the walls seen: most wall samples lie on it (the rest are
+        // lamps and shelves inside).
+        let share = near_outline(&s.polygons, &s.samples, 0.15);
+        eprintln!(
+            "room {r}: {:.3} of {} samples within 15 cm of the outline",
+            share,
+            s.samples.len()
+        );
+        assert!(share >= 0.8, "room {r}: {share}");
+    }
+    // Room 560 shows its walls only within about 1.2 m of the ceiling, along a few metres.
+    let e = asbuilt_plan::plan(&read(560), &Params::default(), &mut NoProgress)
+        .expect_err("too little wall for an outline");
+    let why = e.to_string();
+    assert!(
+        why.contains("no floor was seen") && why.contains("walls were seen along only"),
+        "{why}"
+    );
+}

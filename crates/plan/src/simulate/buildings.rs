@@ -110,7 +110,7 @@ pub enum BuildingKind {
     /// [`BuildingKind::DenseOffice`], its cloud reduced to the centres of occupied 8 cm voxels.
     DenseOfficeVoxels,
     /// An L-shaped room captured as a phone held up to its ceiling captures it: no floor, walls
-    /// seen down to 1.5-2.5 m, the ceiling only near the phone's path, hanging lights.
+    /// seen down to 1.5-3.3 m, the ceiling only near the phone's path, hanging lights.
     CeilingOnly,
     /// Rooms divided by 10 cm partitions, 1.2 m × 1.5 m closets, a bathroom and a stub wall.
     Partitions,

@@ -153,8 +153,9 @@ pub(super) fn partitions_story() -> StoryModel {
 
 /// Points below this height are never captured by [`ceiling_only_story`]'s scanner.
 pub const CEILING_CAPTURE_ABOVE: f64 = 1.5;
-/// Where the phone was held higher, its walls are seen from up to this much higher still.
-pub const CEILING_CAPTURE_SWING: f64 = 1.0;
+/// Where the phone was held higher, its walls are seen from up to this much higher still: from
+/// 3.3 m up at most, 0.7 m under the ceiling, too little to tell a wall from a hanging light.
+pub const CEILING_CAPTURE_SWING: f64 = 1.8;
 /// The ceiling is captured only this far, horizontally, from where the phone was.
 pub const CEILING_CAPTURE_REACH: f64 = 3.0;
 /// Light panels hang this far under the ceiling: a dense level below it, as a suspended grid.
@@ -162,9 +163,10 @@ const LIGHTS_BELOW: f64 = 0.9;
 
 /// An L-shaped room 4 m high, rotated 33°, captured as a phone held up for ceiling-based
 /// localisation captures it, like the consumer-LiDAR rooms of the real data: no floor in the
-/// cloud; walls seen from the ceiling down to 1.5-2.5 m above the floor, the height changing
-/// along them; the ceiling captured only within 3 m of where the phone was, so its far corners
-/// are missing while their walls are there; and light panels hanging 0.9 m under it.
+/// cloud; walls seen from the ceiling down to 1.5-3.3 m above the floor, the height changing
+/// along them, so that along about a third of their length too little of them is seen to be
+/// sure of them; the ceiling captured only within 3 m of where the phone was, so its far
+/// corners are missing while their walls are there; and light panels hanging 0.9 m under it.
 pub(super) fn ceiling_only_story() -> StoryModel {
     let s = RectStory {
         floor_z: 0.0,
