@@ -43,6 +43,11 @@ pub struct FittingParams {
     pub min_inliers: usize,
     /// Connected components of a model with fewer samples are reset (§3.5: 15). Range 0..=1000.
     pub min_component: usize,
+    /// A smaller component is kept when it has at least this many samples, none farther than
+    /// six inlier distances from the next, and the boundary turns just past both its ends: the
+    /// face of a short stub of wall between two corners, beside a closet door. Beyond the
+    /// paper; 0 keeps none. Range 0..=1000.
+    pub min_stub_component: usize,
     /// Unassigned samples within this many boundary hops join the nearest model (§3.5: 15).
     /// Range 0..=200.
     pub grow_hops: usize,
@@ -81,6 +86,7 @@ pub const RANGES: &[ParamRange] = &[
     ParamRange::new("inlier_angle", 0.01, std::f64::consts::FRAC_PI_2, "rad"),
     ParamRange::new("min_inliers", 3.0, 1000.0, ""),
     ParamRange::new("min_component", 0.0, 1000.0, ""),
+    ParamRange::new("min_stub_component", 0.0, 1000.0, ""),
     ParamRange::new("grow_hops", 0.0, 200.0, ""),
     ParamRange::new("iterations", 1.0, 100_000.0, ""),
     ParamRange::new("max_radius", 0.01, 1000.0, "m"),
@@ -97,6 +103,7 @@ impl Default for FittingParams {
             inlier_angle: 0.35,
             min_inliers: 15,
             min_component: 15,
+            min_stub_component: 3,
             grow_hops: 15,
             iterations: 500,
             circles: true,
@@ -165,6 +172,7 @@ fn check_params(p: &FittingParams) -> Result<(), FittingError> {
     check("inlier_angle", p.inlier_angle)?;
     check("min_inliers", p.min_inliers as f64)?;
     check("min_component", p.min_component as f64)?;
+    check("min_stub_component", p.min_stub_component as f64)?;
     check("grow_hops", p.grow_hops as f64)?;
     check("iterations", p.iterations as f64)?;
     check("max_radius", p.max_radius)?;
@@ -187,7 +195,14 @@ pub fn fit_walls(
     let consensus = ransac::find_models(&samples, params, cancel)?;
     let models = consensus.models;
     let mut assigned = consensus.assigned;
-    grow::reset_small_components(&samples, &mut assigned, params.min_component);
+    grow::reset_small_components(
+        &samples,
+        &models,
+        &mut assigned,
+        params.min_component,
+        params.min_stub_component,
+        params.inlier_distance,
+    );
     // A face more than half the inlier band behind a model is another wall face.
     let behind = params.inlier_distance / 2.0;
     grow::grow(

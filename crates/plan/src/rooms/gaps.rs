@@ -75,12 +75,22 @@ pub(crate) fn find(
     let mut out: Vec<Gap> = Vec::new();
     for p in pieces {
         for (p_end, dir) in [(p.b, p.u), (p.a, geom::scale(p.u, -1.0))] {
-            let Some((leave, enter)) = cast(p_end, dir, faces, params.max_door_width) else {
+            let Some((leave, enter, exit)) = cast(p_end, dir, faces, params.max_door_width) else {
                 continue;
             };
-            // The gap starts at the wall's own end (a slanted end takes a little); a ray that
-            // leaves solid farther on has crossed another wall, and what follows is a room.
-            if leave > p.thickness / 2.0 {
+            // The gap starts at the wall's own end: a square end takes half a thickness, a
+            // slanted one (its face joining one of the wall's two faces) up to a thickness. A
+            // ray that leaves solid farther on, or through another face, has gone through a
+            // wall meeting this one, and what follows is a room.
+            let own_end = exit.is_some_and(|k| {
+                let joins = |f: &Face| {
+                    [f.a, f.b].iter().any(|&q| {
+                        geom::dist(q, faces[k].a) < 0.01 || geom::dist(q, faces[k].b) < 0.01
+                    })
+                };
+                joins(&faces[p.faces[0]]) || joins(&faces[p.faces[1]])
+            });
+            if leave > p.thickness / 2.0 && !(own_end && leave <= p.thickness) {
                 continue;
             }
             let origin = geom::add(p_end, geom::scale(dir, leave));
@@ -151,11 +161,12 @@ fn reach(g: &Gap, free: &Free, side: f64) -> f64 {
 }
 
 /// Where the ray from `origin` along `dir` leaves solid last and enters solid again (the
-/// first face it crosses from the free side, up to `max`): the gap's two ends, as distances.
-/// A slanted wall end is crossed on the way out and does not count as the far jamb.
-fn cast(origin: P2, dir: P2, faces: &[Face], max: f64) -> Option<(f64, f64)> {
+/// first face it crosses from the free side, up to `max`): the gap's two ends, as distances,
+/// and the face it leaves solid through. A slanted wall end is crossed on the way out and does
+/// not count as the far jamb.
+fn cast(origin: P2, dir: P2, faces: &[Face], max: f64) -> Option<(f64, f64, Option<usize>)> {
     let mut hits = Vec::new();
-    for f in faces {
+    for (k, f) in faces.iter().enumerate() {
         let e = geom::sub(f.b, f.a);
         let denom = geom::cross(dir, e);
         if denom.abs() < 1e-12 {
@@ -165,7 +176,7 @@ fn cast(origin: P2, dir: P2, faces: &[Face], max: f64) -> Option<(f64, f64)> {
         let t = geom::cross(w, e) / denom;
         let s = geom::cross(w, dir) / denom;
         if t > 1e-4 && t <= max && (-1e-9..=1.0 + 1e-9).contains(&s) {
-            hits.push((t, geom::dot(dir, f.solid_normal()) > 0.0));
+            hits.push((t, geom::dot(dir, f.solid_normal()) > 0.0, k));
         }
     }
     let enter = hits
@@ -179,9 +190,8 @@ fn cast(origin: P2, dir: P2, faces: &[Face], max: f64) -> Option<(f64, f64)> {
     let leave = hits
         .iter()
         .filter(|h| !h.1 && h.0 < enter)
-        .map(|h| h.0)
-        .fold(0.0, f64::max);
-    Some((leave, enter))
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    Some((leave.map_or(0.0, |h| h.0), enter, leave.map(|h| h.2)))
 }
 
 /// Looks at the points over each gap: a lintel when enough 10 cm slices along its width hold
