@@ -15,7 +15,7 @@
 
 use axum::body::Bytes;
 use axum::extract::{Path, Query, State};
-use axum::http::{HeaderMap, HeaderValue, StatusCode};
+use axum::http::{HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use futures_util::{StreamExt, TryStreamExt};
 use serde::{Deserialize, Serialize};
@@ -194,18 +194,9 @@ pub async fn open(
         upload_id,
         expires_ms: now_ms() + state.config.upload_session_ms(),
     };
-    let bytes = serde_json::to_vec(&record).map_err(ApiError::internal)?;
-    state
-        .blobs
-        .put(&keys::direct_upload(id), bytes.into())
-        .await?;
+    super::put_json(&state, &keys::direct_upload(id), &record).await?;
     let body = view(direct, id, &record).await?;
-    let mut r = (StatusCode::CREATED, axum::Json(body)).into_response();
-    r.headers_mut().insert(
-        "location",
-        HeaderValue::try_from(format!("/v1/direct-uploads/{id}")).map_err(ApiError::internal)?,
-    );
-    Ok(r)
+    super::created(body, format!("/v1/direct-uploads/{id}"))
 }
 
 /// `GET /v1/direct-uploads/{id}`: the upload, with fresh URLs.

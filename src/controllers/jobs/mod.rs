@@ -16,9 +16,33 @@ mod sniff;
 pub mod submit;
 pub mod uploads;
 
+use axum::http::{HeaderValue, StatusCode};
+use axum::response::{IntoResponse, Response};
+use serde::Serialize;
+
 use crate::app::AppState;
 use crate::errors::{ApiError, Code};
 use crate::queue::{Job, JobId};
+
+/// Stores an upload session's record as JSON under `key`: tus and direct uploads keep their
+/// state in the blob store, so any API process can serve the next call.
+pub async fn put_json<T: Serialize>(
+    state: &AppState,
+    key: &str,
+    value: &T,
+) -> Result<(), ApiError> {
+    let bytes = serde_json::to_vec(value).map_err(ApiError::internal)?;
+    state.blobs.put(key, bytes.into()).await?;
+    Ok(())
+}
+
+/// `201 Created` with `body`, and `Location` naming what was created.
+pub fn created(body: serde_json::Value, location: String) -> Result<Response, ApiError> {
+    let mut r = (StatusCode::CREATED, axum::Json(body)).into_response();
+    let at = HeaderValue::try_from(location).map_err(ApiError::internal)?;
+    r.headers_mut().insert("location", at);
+    Ok(r)
+}
 
 /// Parses a path id; an invalid one is simply not found.
 pub fn parse_id(raw: &str) -> Result<JobId, ApiError> {

@@ -127,20 +127,8 @@ pub async fn open(
         length,
         expires_ms: now_ms() + state.config.upload_session_ms(),
     };
-    let body = serde_json::to_vec(&session).map_err(ApiError::internal)?;
-    state
-        .blobs
-        .put(&keys::upload_session(id), body.into())
-        .await?;
-    let mut r = (
-        StatusCode::CREATED,
-        axum::Json(session_view(id, &session, 0)),
-    )
-        .into_response();
-    r.headers_mut().insert(
-        "location",
-        HeaderValue::try_from(format!("/v1/uploads/{id}")).map_err(ApiError::internal)?,
-    );
+    super::put_json(&state, &keys::upload_session(id), &session).await?;
+    let r = super::created(session_view(id, &session, 0), format!("/v1/uploads/{id}"))?;
     Ok(tus_headers(r, Some(0), length))
 }
 
