@@ -467,6 +467,14 @@ fn plan_story(
     timings.add(VALIDITY, start.elapsed().as_secs_f64() * 1e3);
     let mut notes = fitted.notes;
     notes.extend(valid.notes);
+    if samples.shallow_kept > 0.0 {
+        notes.push(format!(
+            "{:.1} m of wall seen less than {:.1} m under the ceiling was kept where it runs on \
+             from a wall seen deeper",
+            samples.shallow_kept,
+            crate::samples::FLOORLESS_REACH * params.samples.min_wall_height
+        ));
+    }
     let mut plan = StoryPlan {
         level: story.level,
         floor_z: story.floor_z,

@@ -59,6 +59,9 @@ pub(super) struct Wall {
     pub pos: P2,
     pub normal: P2,
     pub confidence: f64,
+    /// Seen less than [`FLOORLESS_REACH`] under the ceiling, where the floor was not seen: a
+    /// wall only where it continues one seen deeper (see `shallow.rs`).
+    pub shallow: bool,
 }
 
 /// The tests of §3.1 for one story.
@@ -123,6 +126,21 @@ impl Tests {
         } else {
             self.min_wall_height
         }
+    }
+
+    /// The least vertical support any neighbourhood may have: [`Self::min_wall_height`], or
+    /// that of a shallow sample where the floor was not seen. The block prefilter asks it.
+    pub fn least_support(&self) -> f64 {
+        if self.local_bottom {
+            self.min_wall_height * SHALLOW_REACH
+        } else {
+            self.min_wall_height()
+        }
+    }
+
+    /// Whether a neighbourhood whose lowest point is at `zmin` would be a shallow sample.
+    pub fn shallow(&self, zmin: f32) -> bool {
+        self.local_bottom && self.ceiling - (zmin as f64) < FLOORLESS_REACH * self.min_wall_height
     }
 
     /// Whether each neighbourhood is measured against its own top or bottom (a story whose
@@ -242,6 +260,7 @@ impl Tests {
             (a.0.min(p[2]), a.1.max(p[2]))
         });
         let last = self.bins as u8 - 1;
+        let mut shallow = false;
         let tally =
             |(m, n): (u32, usize), b: u8| (m | 1 << b, n + usize::from(b != 0 && b != last));
         let (mask, n) = if self.local() {
@@ -258,9 +277,14 @@ impl Tests {
                 self.floor
             };
             let top = zmax as f64;
-            let deep = !self.local_bottom
-                || self.ceiling - bottom >= FLOORLESS_REACH * self.min_wall_height;
-            if !deep || (top - bottom).min((zmax - zmin) as f64) < self.min_wall_height() {
+            let reach = self.ceiling - bottom;
+            shallow = self.shallow(zmin);
+            let least = if shallow {
+                SHALLOW_REACH * self.min_wall_height
+            } else {
+                self.min_wall_height()
+            };
+            if (shallow && reach < least) || (top - bottom).min((zmax - zmin) as f64) < least {
                 return Err(Reject::TooShort);
             }
             pts.iter()
@@ -285,6 +309,7 @@ impl Tests {
             pos,
             normal,
             confidence,
+            shallow,
         })
     }
 }
@@ -292,7 +317,13 @@ impl Tests {
 /// Where the floor was not seen, a wall must reach down this share of the minimum wall height
 /// under the ceiling. The phone rooms' walls are seen to a median 2.2-2.4 m under it, but along
 /// a fifth of their length less than 2 m; ceiling clutter hangs within about 1.1 m of the slab.
-pub(super) const FLOORLESS_REACH: f64 = 0.6;
+pub(crate) const FLOORLESS_REACH: f64 = 0.6;
+
+/// Where the floor was not seen, a wall seen only this share of the minimum wall height under
+/// the ceiling (and no more than [`FLOORLESS_REACH`]) is a shallow sample: hanging clutter
+/// looks the same, so it is kept only where it continues a wall seen deeper. A phone held high
+/// sees 0.7 m of the simulated room's walls; hanging lights fail the histogram (two levels).
+pub(super) const SHALLOW_REACH: f64 = 0.3;
 
 /// The bin of `z` among `bins` equal bins over `[floor, top]`, `None` outside.
 #[inline]

@@ -10,6 +10,7 @@ mod bounds;
 mod cell;
 mod coverage;
 pub(crate) mod grid;
+mod shallow;
 mod spacing;
 mod views;
 
@@ -25,6 +26,7 @@ use crate::params::{within, ParamRange};
 use crate::stories::Story;
 use crate::underlay::{slice_of, DensityPart, Underlay};
 pub use bounds::{Blocks, CellRange, GridFrame, StoryBounds};
+pub(crate) use cell::FLOORLESS_REACH;
 use cell::{Reject, Tests};
 use grid::{Carry, Grid, Points, Screen, Summary};
 pub use spacing::SpacingProbe;
@@ -120,6 +122,10 @@ pub struct WallSamples {
     pub min_points_used: usize,
     /// Cells that passed every test before the range filter, for reports.
     pub cells_tested: usize,
+    /// Metres of wall seen too little under the ceiling to stand alone (floorless stories),
+    /// kept because it continues a wall seen deeper.
+    #[serde(default)]
+    pub shallow_kept: f64,
     /// The story's points at mid-height on this grid, drawn under the plan (not serialized).
     #[serde(skip)]
     pub underlay: Option<Underlay>,
@@ -360,10 +366,26 @@ pub(crate) fn finish_samples(
         .filter(|f| f.count >= min_points_used && f.sample.is_some())
         .collect();
     let cells_tested = walls.len();
-    let samples: Vec<WallSample> = walls
+    let near: Vec<&Found> = walls
         .into_iter()
         .filter(|f| f.nearest.is_none_or(|d| d <= params.max_range))
-        .filter_map(|f| f.sample.clone())
+        .collect();
+    let candidates: Vec<(&WallSample, bool)> = near
+        .iter()
+        .filter_map(|f| f.sample.as_ref().map(|s| (s, f.shallow)))
+        .collect();
+    let keep = shallow::continuing(&candidates, frame.cell);
+    let shallow_kept = keep
+        .iter()
+        .zip(&candidates)
+        .filter(|(&k, c)| k && c.1)
+        .count() as f64
+        * frame.cell;
+    let samples: Vec<WallSample> = candidates
+        .iter()
+        .zip(&keep)
+        .filter(|(_, &k)| k)
+        .map(|(c, _)| c.0.clone())
         .collect();
     if samples.is_empty() {
         let why = if cells_tested > 0 {
@@ -397,6 +419,7 @@ pub(crate) fn finish_samples(
         path: views.path,
         min_points_used,
         cells_tested,
+        shallow_kept,
         underlay,
     })
 }
@@ -457,7 +480,12 @@ fn check_values(params: &SamplesParams) -> Result<(), SamplesError> {
 /// eighth keeps such walls (a quarter lost the far corners of simulated offices) while the
 /// height tests still drop stray cells.
 fn adaptive_min_points(found: &[Found]) -> usize {
-    let mut counts: Vec<usize> = found.iter().map(|f| f.count).collect();
+    // Shallow cells are not yet walls: they say nothing of how dense walls are.
+    let mut counts: Vec<usize> = found
+        .iter()
+        .filter(|f| !f.shallow)
+        .map(|f| f.count)
+        .collect();
     if counts.is_empty() {
         return ADAPTIVE_RANGE.0;
     }
@@ -489,6 +517,8 @@ struct Found {
     nearest: Option<f64>,
     /// Why a wall-like cell gave no sample.
     why: Option<Reject>,
+    /// Seen too little under the ceiling to be a wall on its own (floorless stories).
+    shallow: bool,
 }
 
 /// What one grid row yields: wall-like cells and the rejections by reason.
@@ -503,7 +533,7 @@ fn prefilter(tests: &Tests, block: &Summary, min_points: usize) -> Result<(), Re
     if (block.n as usize) < min_points {
         return Err(Reject::TooFew);
     }
-    if ((block.zmax - block.zmin) as f64) < tests.min_wall_height() {
+    if ((block.zmax - block.zmin) as f64) < tests.least_support() {
         return Err(Reject::TooShort);
     }
     if tests.local() {
@@ -588,12 +618,14 @@ impl Scan<'_> {
         ) {
             Ok(w) => w,
             Err(r) if r.wall_like() => {
+                let zmin = s.pts.iter().fold(f32::INFINITY, |m, p| m.min(p[2]));
                 return Ok(Some(Found {
                     count,
                     sample: None,
                     nearest: None,
                     why: Some(r),
-                }))
+                    shallow: self.tests.shallow(zmin),
+                }));
             }
             Err(r) => return Err(r),
         };
@@ -610,6 +642,7 @@ impl Scan<'_> {
             }),
             nearest: seen.nearest,
             why: None,
+            shallow: wall.shallow,
         }))
     }
 
