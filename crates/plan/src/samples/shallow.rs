@@ -12,8 +12,9 @@ use crate::geom::{self, P2};
 
 use super::WallSample;
 
-/// Two shallow samples are one run when at most this many cells apart...
-const LINK: f64 = 3.0;
+/// Two shallow samples are one run when at most this far apart, metres (a sparse capture
+/// leaves holes of a few cells in a run)...
+const LINK: f64 = 0.5;
 
 /// ...each on the other's line, within this many cells of it...
 const OFF_LINE: f64 = 0.6;
@@ -21,28 +22,46 @@ const OFF_LINE: f64 = 0.6;
 /// ...with normals within 15° of each other. A run joined so to a wall sample runs on along it.
 const MIN_COS: f64 = 0.966;
 
+/// A run of deep samples is a wall when at least this long, metres.
+const MIN_WALL: f64 = 0.5;
+
+/// A shallow run shorter than this, metres, is left out: a stray cell or two is no stretch of
+/// wall, and holes that short in a wall are filled by labeling anyway.
+const MIN_RUN: f64 = 0.25;
+
 /// A run spans between walls when both its ends lie this close to a wall sample, metres: a
 /// corner's own cells often fail the alignment test, so the walls' last samples stand back.
 const END_REACH: f64 = 0.25;
 
 /// Which of `samples` (each with whether it is shallow) to keep: every deep one, and each run
-/// of shallow ones that runs on along a kept wall's line or spans between kept walls.
+/// of shallow ones that runs on along a wall's line or spans between walls. Walls here are
+/// runs of deep samples at least [`MIN_WALL`] long and the shallow runs kept so far: a stray
+/// deep sample or two (clutter) anchors nothing.
 pub(super) fn continuing(samples: &[(&WallSample, bool)], cell: f64) -> Vec<bool> {
     let mut keep: Vec<bool> = samples.iter().map(|s| !s.1).collect();
     if keep.iter().all(|&k| k) {
         return keep;
     }
-    let index = Index::new(samples, (LINK * cell).max(END_REACH));
-    let runs = runs(samples, &index, cell);
+    let index = Index::new(samples, LINK.max(END_REACH));
+    let (shallow, deep): (Vec<Vec<usize>>, Vec<Vec<usize>>) = runs(samples, &index, cell)
+        .into_iter()
+        .partition(|run| samples[run[0]].1);
+    let mut wall = vec![false; samples.len()];
+    for run in deep.iter().filter(|run| extent(run, samples) >= MIN_WALL) {
+        run.iter().for_each(|&i| wall[i] = true);
+    }
     // A run kept can anchor the next (two shallow walls meeting at a corner).
     loop {
         let mut changed = false;
-        for run in &runs {
-            if keep[run[0]] {
+        for run in &shallow {
+            if keep[run[0]] || extent(run, samples) < MIN_RUN {
                 continue;
             }
-            if joins_kept(run, samples, &index, &keep, cell) || spans(run, samples, &index, &keep) {
-                run.iter().for_each(|&i| keep[i] = true);
+            if joins(run, samples, &index, &wall, cell) || spans(run, samples, &index, &wall) {
+                run.iter().for_each(|&i| {
+                    keep[i] = true;
+                    wall[i] = true;
+                });
                 changed = true;
             }
         }
@@ -55,17 +74,17 @@ pub(super) fn continuing(samples: &[(&WallSample, bool)], cell: f64) -> Vec<bool
 /// Whether samples `a` and `b` lie on one wall line.
 fn linked(a: &WallSample, b: &WallSample, cell: f64) -> bool {
     let d = geom::sub(b.pos, a.pos);
-    geom::norm(d) <= LINK * cell
+    geom::norm(d) <= LINK
         && geom::dot(d, a.normal).abs() <= OFF_LINE * cell
         && geom::dot(d, b.normal).abs() <= OFF_LINE * cell
         && geom::dot(a.normal, b.normal).abs() >= MIN_COS
 }
 
-/// Shallow samples grouped into runs along wall lines (indices into `samples`).
+/// Samples grouped into runs along wall lines, shallow and deep apart (indices into `samples`).
 fn runs(samples: &[(&WallSample, bool)], index: &Index, cell: f64) -> Vec<Vec<usize>> {
     let mut run_of = vec![usize::MAX; samples.len()];
     let mut runs = Vec::new();
-    for start in (0..samples.len()).filter(|&i| samples[i].1) {
+    for start in 0..samples.len() {
         if run_of[start] != usize::MAX {
             continue;
         }
@@ -77,7 +96,7 @@ fn runs(samples: &[(&WallSample, bool)], index: &Index, cell: f64) -> Vec<Vec<us
             let a = run[next];
             next += 1;
             for b in index.near(samples[a].0.pos) {
-                if samples[b].1
+                if samples[b].1 == samples[a].1
                     && run_of[b] == usize::MAX
                     && linked(samples[a].0, samples[b].0, cell)
                 {
@@ -91,37 +110,45 @@ fn runs(samples: &[(&WallSample, bool)], index: &Index, cell: f64) -> Vec<Vec<us
     runs
 }
 
-/// Whether `run` runs on along the line of a kept sample.
-fn joins_kept(
+/// Whether `run` runs on along the line of a wall sample.
+fn joins(
     run: &[usize],
     samples: &[(&WallSample, bool)],
     index: &Index,
-    keep: &[bool],
+    wall: &[bool],
     cell: f64,
 ) -> bool {
     run.iter().any(|&a| {
         index
             .near(samples[a].0.pos)
-            .any(|b| keep[b] && linked(samples[a].0, samples[b].0, cell))
+            .any(|b| wall[b] && linked(samples[a].0, samples[b].0, cell))
     })
 }
 
-/// Whether both ends of `run` (its extreme samples along its direction) lie within
-/// [`END_REACH`] of kept samples.
-fn spans(run: &[usize], samples: &[(&WallSample, bool)], index: &Index, keep: &[bool]) -> bool {
+/// The extreme samples of `run` along its direction.
+fn ends(run: &[usize], samples: &[(&WallSample, bool)]) -> (usize, usize) {
     let n = samples[run[0]].0.normal;
     let along = [-n[1], n[0]];
     let at = |i: usize| geom::dot(samples[i].0.pos, along);
     let first = run.iter().copied().min_by(|&a, &b| at(a).total_cmp(&at(b)));
     let last = run.iter().copied().max_by(|&a, &b| at(a).total_cmp(&at(b)));
-    let (Some(first), Some(last)) = (first, last) else {
-        return false;
-    };
+    (first.unwrap_or(run[0]), last.unwrap_or(run[0]))
+}
+
+/// The length of `run` between its ends, metres.
+fn extent(run: &[usize], samples: &[(&WallSample, bool)]) -> f64 {
+    let (a, b) = ends(run, samples);
+    geom::dist(samples[a].0.pos, samples[b].0.pos)
+}
+
+/// Whether both ends of `run` lie within [`END_REACH`] of wall samples.
+fn spans(run: &[usize], samples: &[(&WallSample, bool)], index: &Index, wall: &[bool]) -> bool {
+    let (first, last) = ends(run, samples);
     let anchored = |end: usize| {
         let p = samples[end].0.pos;
         index
             .near(p)
-            .any(|b| keep[b] && geom::dist(samples[b].0.pos, p) <= END_REACH)
+            .any(|b| wall[b] && geom::dist(samples[b].0.pos, p) <= END_REACH)
     };
     first != last && anchored(first) && anchored(last)
 }
@@ -204,14 +231,33 @@ mod tests {
         all.extend(row([0.0, 0.5], [1.0, 0.5], true));
         // A duct from the wall's end into the room, at right angles to it: one end free.
         all.extend(row([3.0, 0.1], [3.0, 1.0], true));
-        // A shallow run on the wall's line past a gap of 0.3 m, its far end free.
-        all.extend(row([3.35, 0.0], [3.85, 0.0], true));
+        // A shallow run on the wall's line past a gap of 0.7 m, its far end free.
+        all.extend(row([3.75, 0.0], [4.25, 0.0], true));
+        // Two deep samples of clutter in the room, and a shallow run on their line.
+        all.extend(row([1.0, 2.0], [1.05, 2.0], false));
+        let clutter = all.len();
+        all.extend(row([1.1, 2.0], [2.0, 2.0], true));
+        // A lone shallow sample on the wall's line past its end.
+        all.push((sample(-0.1, 0.0, [0.0, 1.0]), true));
         let keep = keep(&all);
         assert!(
             keep[..wall].iter().all(|&k| k),
             "the wall and its shallow run"
         );
-        assert!(keep[wall..].iter().all(|&k| !k), "{:?}", &keep[wall..]);
+        assert!(
+            keep[wall..clutter - 2].iter().all(|&k| !k),
+            "{:?}",
+            &keep[wall..]
+        );
+        assert!(
+            keep[clutter - 2..clutter].iter().all(|&k| k),
+            "deep samples stay"
+        );
+        assert!(
+            keep[clutter..].iter().all(|&k| !k),
+            "{:?}",
+            &keep[clutter..]
+        );
     }
 
     #[test]
