@@ -644,9 +644,22 @@ mod tests {
         assert!(t.run(&column(2.1, 3.9, true), lo, 0.05, 50).is_ok());
         // A wall seen only from 2.9 m up, 1.55 m under the ceiling: still a wall.
         assert!(t.run(&column(2.9, 4.45, true), lo, 0.05, 50).is_ok());
-        // A duct hanging 1.1 m under the slab: too high up to be a wall.
+        // A wall seen from 2.9 m up, or so far the smaller part of one, is no shallow sample.
+        assert!(
+            !t.run(&column(2.9, 4.45, true), lo, 0.05, 50)
+                .unwrap()
+                .shallow
+        );
+        // A duct hanging 1.1 m under the slab: too high up to be a wall by itself, only a
+        // shallow sample (`shallow.rs` keeps it where it continues a wall).
+        assert!(
+            t.run(&column(3.35, 4.45, true), lo, 0.05, 50)
+                .unwrap()
+                .shallow
+        );
+        // Seen only 0.5 m under the slab: not even that.
         assert_eq!(
-            t.run(&column(3.35, 4.45, true), lo, 0.05, 50),
+            t.run(&column(3.95, 4.45, true), lo, 0.05, 50),
             Err(Reject::TooShort)
         );
     }
