@@ -2,7 +2,11 @@
 //! wall below and above. The wall's points are binned 10 cm along the face by 10 cm of height;
 //! a column is a window column when a run of empty height bins at least 0.5 m tall starts
 //! `min_sill_height` or more above the floor, with points under and over it. Runs of window
-//! columns at least `min_window_width` long are windows.
+//! columns at least `min_window_width` long are windows. The bins place each edge within
+//! 10 cm; a second pass over the points near each window moves its jambs to the last wall
+//! point beside the gap and its sill and head to the last point below and above it, each
+//! within one bin of where the bins put it (so a stray point in the glass moves an edge at
+//! most one bin).
 
 use super::faces::Face;
 use super::gaps::{ring_box, BoxIndex};
@@ -64,7 +68,7 @@ pub(crate) fn find(
             grids[k][c * rows + r] = true;
         }
     }
-    let mut out = Vec::new();
+    let mut found: Vec<Found> = Vec::new();
     for (k, f) in outer.iter().enumerate() {
         let columns: Vec<Option<(f64, f64)>> = (0..cols(f))
             .map(|c| opening(&grids[k][c * rows..(c + 1) * rows], params))
@@ -87,28 +91,119 @@ pub(crate) fn find(
             let mut heads: Vec<f64> = columns[start..c].iter().flatten().map(|o| o.1).collect();
             sills.sort_by(f64::total_cmp);
             heads.sort_by(f64::total_cmp);
-            let (a, b) = (f.at(start as f64 * BIN), f.at((c as f64 * BIN).min(f.len)));
-            let mid = geom::scale(geom::add(a, b), 0.5);
-            let inside = geom::sub(mid, geom::scale(f.solid_normal(), 0.05));
-            out.push(Window {
-                id: String::new(),
-                a,
-                b,
-                width: geom::dist(a, b),
-                sill_z: story.floor_z + sills[sills.len() / 2],
-                head_z: story.floor_z + heads[heads.len() / 2],
-                room: spaces
-                    .rooms
-                    .iter()
-                    .find(|r| super::segment::contains(&r.polygon, inside))
-                    .map(|r| r.id.clone()),
+            let (t0, t1) = (start as f64 * BIN, (c as f64 * BIN).min(f.len));
+            let (sill, head) = (sills[sills.len() / 2], heads[heads.len() / 2]);
+            found.push(Found {
+                face: k,
+                bins: [t0, t1, sill, head],
+                // Each edge's last point, from where the bins put it (nothing seen yet).
+                edges: [t0, t1, sill, head],
+                seen: [false; 4],
             });
         }
+    }
+    refine(&mut found, &outer, story, points, stride);
+    let mut out = Vec::new();
+    for w in &found {
+        let f = outer[w.face];
+        let [t0, t1, sill, head] = w.edges;
+        let (a, b) = (f.at(t0), f.at(t1));
+        let mid = geom::scale(geom::add(a, b), 0.5);
+        let inside = geom::sub(mid, geom::scale(f.solid_normal(), 0.05));
+        out.push(Window {
+            id: String::new(),
+            a,
+            b,
+            width: geom::dist(a, b),
+            sill_z: story.floor_z + sill,
+            head_z: story.floor_z + head,
+            room: spaces
+                .rooms
+                .iter()
+                .find(|r| super::segment::contains(&r.polygon, inside))
+                .map(|r| r.id.clone()),
+        });
     }
     for (n, w) in out.iter_mut().enumerate() {
         w.id = format!("L{}-W{}", story.level, n + 1);
     }
     out
+}
+
+/// A window the bins found on outer face `face`: `bins` are its jambs along the face and its
+/// sill and head above the floor as the bins give them, `edges` the same refined by the points.
+struct Found {
+    face: usize,
+    bins: [f64; 4],
+    edges: [f64; 4],
+    seen: [bool; 4],
+}
+
+/// Moves each window's edges to the last point of the wall around it: the jambs to the wall
+/// points between the sill and head nearest the gap, the sill and head to the points over the
+/// gap's width nearest it, each searched only in the bin outside the bins' edge.
+fn refine(
+    found: &mut [Found],
+    outer: &[&Face],
+    story: &StoryPlan,
+    points: &StoryPoints<'_>,
+    stride: usize,
+) {
+    if found.is_empty() {
+        return;
+    }
+    let boxes: Vec<[f64; 4]> = found
+        .iter()
+        .map(|w| {
+            let f = outer[w.face];
+            let n = geom::scale(f.solid_normal(), 0.1);
+            let (a, b) = (f.at(w.bins[0] - BIN), f.at(w.bins[1] + BIN));
+            ring_box(&[
+                geom::sub(a, n),
+                geom::add(a, n),
+                geom::sub(b, n),
+                geom::add(b, n),
+            ])
+        })
+        .collect();
+    let index = BoxIndex::new(&boxes);
+    for q in points.xyz.iter().step_by(stride) {
+        let z = q[2] as f64 - story.floor_z;
+        let p = [q[0] as f64, q[1] as f64];
+        for &k in index.near(p) {
+            let w = &mut found[k];
+            let f = outer[w.face];
+            let s = geom::dot(geom::sub(p, f.a), f.solid_normal());
+            if !(-0.03..=0.03).contains(&s) {
+                continue;
+            }
+            let t = f.param(p);
+            let [t0, t1, sill, head] = w.bins;
+            let between = z > sill && z < head;
+            let over = t > t0 && t < t1;
+            // Each edge keeps the point nearest the gap within one bin outside it.
+            if between && t >= t0 - BIN && t < t0 {
+                take(w, 0, t, |new, old| new > old);
+            }
+            if between && t > t1 && t <= t1 + BIN {
+                take(w, 1, t, |new, old| new < old);
+            }
+            if over && z >= sill - BIN && z < sill {
+                take(w, 2, z, |new, old| new > old);
+            }
+            if over && z > head && z <= head + BIN {
+                take(w, 3, z, |new, old| new < old);
+            }
+        }
+    }
+}
+
+/// Sets edge `e` of `w` to `v` when it is the first point seen or `nearer` than the last.
+fn take(w: &mut Found, e: usize, v: f64, nearer: impl Fn(f64, f64) -> bool) {
+    if !w.seen[e] || nearer(v, w.edges[e]) {
+        w.edges[e] = v;
+        w.seen[e] = true;
+    }
 }
 
 fn cols(f: &Face) -> usize {

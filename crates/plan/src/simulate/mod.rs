@@ -26,7 +26,7 @@ use rand_distr::Normal;
 use rayon::prelude::*;
 
 pub use buildings::{Building, BuildingKind};
-pub use truth::{Truth, TruthDoor, TruthRoom, TruthStory, TruthWall};
+pub use truth::{Truth, TruthDoor, TruthRoom, TruthStory, TruthWall, TruthWindow};
 
 use crate::cloud::{PointCloud, ScanPose, SourceInfo, TrajectorySample, Viewpoints};
 use crate::geom::{self, P2};

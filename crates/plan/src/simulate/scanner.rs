@@ -33,6 +33,17 @@ pub fn cast(story: &StoryModel, o: [f64; 3], d: [f64; 3]) -> Option<f64> {
             best = t;
         }
     }
+    // A ray that leaves through a window's outer plane measures nothing: there is no outside.
+    for w in &story.truth.windows {
+        let (a, b) = w.exit();
+        let plane = Surface {
+            curve: TruthWall::Line { a, b },
+            z: [w.sill_z, w.head_z],
+        };
+        if hit_surface(&plane, o, d, best).is_some() {
+            return None;
+        }
+    }
     (best.is_finite() && best > EPS).then_some(best)
 }
 
