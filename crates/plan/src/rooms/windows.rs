@@ -263,13 +263,13 @@ fn refine(windows: &mut [Piece], story: &StoryPlan, points: &StoryPoints<'_>, st
             // still lie a few centimetres inside the window there.
             let over = t > BIN.min(len / 4.0) && t < len - BIN.min(len / 4.0);
             let e = &mut edges[k];
-            if between && t >= -JAMB_REACH && t < 0.02 {
+            if between && (-JAMB_REACH..0.02).contains(&t) {
                 keep(&mut e[0], t, f64::max);
             }
             if between && t > len - 0.02 && t <= len + JAMB_REACH {
                 keep(&mut e[1], t, f64::min);
             }
-            if over && z >= w.sill - HEIGHT_REACH && z < w.sill + BIN {
+            if over && (w.sill - HEIGHT_REACH..w.sill + BIN).contains(&z) {
                 keep(&mut e[2], z, f64::max);
             }
             if over && z > w.head - BIN && z <= w.head + HEIGHT_REACH {

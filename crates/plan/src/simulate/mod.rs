@@ -1,7 +1,8 @@
 //! A scanner simulator: synthetic buildings with exact ground truth, scanned by static or mobile
 //! scanners. Used by tests, benchmarks and `asbuilt simulate`.
 //!
-//! - `buildings.rs`: the buildings (walls, doors with lintels, columns, tables) and their truth.
+//! - `buildings.rs`: the buildings (walls, doors with lintels, windows, columns, tables) and
+//!   their truth.
 //! - `scanner.rs`: analytic ray casting against wall segments and arcs, floors and ceilings.
 //! - `truth.rs`: the ground truth per story, exact lines and arcs.
 //! - [`random`]: random buildings (rooms, corridors, closets, columns, bays, any rotation) for
