@@ -106,7 +106,11 @@ pub(crate) fn find(
     let mut out = Vec::new();
     for p in windows {
         let width = geom::dist(p.a, p.b);
-        if width < params.min_window_width || p.head - p.sill < 0.5 {
+        // The refined sill is held to the same floor as the bins' (lower gaps are doors).
+        if width < params.min_window_width
+            || p.head - p.sill < 0.5
+            || p.sill < params.min_sill_height
+        {
             continue;
         }
         let mid = geom::scale(geom::add(p.a, p.b), 0.5);
