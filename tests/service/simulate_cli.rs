@@ -55,7 +55,14 @@ fn static_scan_writes_cloud_poses_and_truth() {
         "{}",
         String::from_utf8_lossy(&info.stderr)
     );
-    assert!(text.contains("points: 20000"), "{text}");
+    // Rays that leave through the L's windows measure nothing and are not replaced.
+    let points: usize = text
+        .split("points: ")
+        .nth(1)
+        .and_then(|r| r.split(|c: char| !c.is_ascii_digit()).next())
+        .and_then(|n| n.parse().ok())
+        .expect("a point count");
+    assert!((19_000..=20_000).contains(&points), "{text}");
     assert!(text.contains("poses: 3"), "{text}");
     let truth: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("truth.json")).unwrap()).unwrap();

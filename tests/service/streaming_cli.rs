@@ -65,12 +65,26 @@ fn max_memory_streams_to_the_same_plan() {
         &timings,
     ]);
     ok(asbuilt(&b));
-    // A streamed plan keeps no points to look for lintels over door gaps: its doors have no
-    // `head_z`, and a note says so. Everything else is equal.
-    let (whole, mut streamed) = (
+    // A streamed plan keeps no points to look for lintels over door gaps or for windows: its
+    // doors have no `head_z`, it has no windows, and a note says so. Everything else is equal.
+    let (mut whole, mut streamed) = (
         plan_without_timings(Path::new(&whole)),
         plan_without_timings(Path::new(&streamed)),
     );
+    let windows = |v: &Value| {
+        v["features"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|f| f["properties"]["kind"] == "window")
+            .count()
+    };
+    assert!(windows(&whole) > 0, "rotated_l has windows");
+    assert_eq!(windows(&streamed), 0);
+    whole["features"]
+        .as_array_mut()
+        .unwrap()
+        .retain(|f| f["properties"]["kind"] != "window");
     let notes = streamed["floorplan"]["notes"].as_array_mut().unwrap();
     let before = notes.len();
     notes.retain(|n| {

@@ -11,6 +11,10 @@
 //! none), rooms within the area bound (1 %, or 0.2 m² under 20 m²), worst area error, door
 //! recall and precision (centre within 10 cm, width within 5 cm), the matched doors' largest
 //! centre and width errors, and the largest interior wall thickness error, m.
+//!
+//! `windows |` rows, one per story whose truth or plan has windows: windows found/true (+ plan
+//! windows matching none; a match is a centre within 30 cm), recall, precision, and the matched
+//! windows' largest centre, width, sill and head errors, m.
 
 use asbuilt_plan::evaluate::{evaluate, EvaluateParams};
 use asbuilt_plan::io::geojson;
@@ -114,6 +118,24 @@ fn main() {
                 r.door_centre_max,
                 r.door_width_max,
                 r.thickness_max,
+            );
+        }
+    }
+    for st in &e.stories {
+        if let Some(w) = &st.windows {
+            println!(
+                "windows | {} | {mode} | {} | {}/{} (+{}) | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} |",
+                args[0],
+                st.level,
+                w.matched,
+                w.truth_windows,
+                w.plan_windows.saturating_sub(w.matched),
+                w.recall(),
+                w.precision(),
+                w.centre_max,
+                w.width_max,
+                w.sill_max,
+                w.head_max,
             );
         }
     }

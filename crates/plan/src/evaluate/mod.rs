@@ -8,6 +8,7 @@ mod area;
 mod distance;
 pub mod rooms;
 mod watertight;
+pub mod windows;
 
 use serde::Serialize;
 
@@ -92,6 +93,8 @@ pub struct StoryScore {
     pub arcs: Vec<ArcScore>,
     /// Rooms, doors and wall thickness; `None` when the truth gives no rooms.
     pub rooms: Option<rooms::RoomsScore>,
+    /// Windows; `None` when neither the truth nor the plan has any.
+    pub windows: Option<windows::WindowsScore>,
 }
 
 impl StoryScore {
@@ -176,6 +179,9 @@ impl Evaluation {
         for st in &self.stories {
             if let Some(r) = &st.rooms {
                 s.push_str(&format!("level {} {}\n", st.level, r.summary()));
+            }
+            if let Some(w) = &st.windows {
+                s.push_str(&format!("level {} {}\n", st.level, w.summary()));
             }
         }
         s.push_str(&format!("extra plan stories: {}\n", self.extra_stories));
@@ -310,6 +316,7 @@ fn missing_story(t: &TruthStory, params: &EvaluateParams) -> StoryScore {
             })
             .collect(),
         rooms: None,
+        windows: None,
     }
 }
 
@@ -334,6 +341,7 @@ fn score_story(p: &StoryPlan, t: &TruthStory, params: &EvaluateParams) -> StoryS
             .map(|(center, radius)| arc_score(p, center, radius))
             .collect(),
         rooms: rooms::score_rooms(p, t, params.scanline),
+        windows: windows::score_windows(p, t),
     }
 }
 
@@ -424,6 +432,7 @@ mod tests {
                 polygons: vec![p],
                 rooms: Vec::new(),
                 doors: Vec::new(),
+                windows: Vec::new(),
             }],
         }
     }

@@ -230,7 +230,7 @@ pub fn find_rooms(
         params,
     );
     if seen {
-        out.spaces.windows = windows::find(story, &faces, points, &out.spaces, params);
+        out.spaces.windows = windows::find(story, &faces, &paired.1, points, &out.spaces, params);
     }
     if divided.dropped > 0 {
         out.notes.push(format!(

@@ -239,6 +239,33 @@ fn a_window_in_an_outer_wall() {
 }
 
 #[test]
+fn window_edges_between_bins_are_found_to_the_point_spacing() {
+    let (plan, _) = story(&[Rect::new(0.0, 0.0, 5.0, 4.0)], &[], &[], false);
+    // A window from x 1.53 to 2.77, z 0.87 to 2.13, off the 10 cm bins; points every 2 cm
+    // (on the odd centimetres), and one stray point in the glass.
+    let (x0, x1, z0, z1) = (1.53, 2.77, 0.87, 2.13);
+    let mut points = vec![[2.0f32, 0.0, 1.5]];
+    for i in 0..250 {
+        for k in 0..130 {
+            let (x, z) = (i as f64 * 0.02 + 0.01, k as f64 * 0.02 + 0.01);
+            if (x0..x1).contains(&x) && (z0..z1).contains(&z) {
+                continue;
+            }
+            points.push([x as f32, 0.0, z as f32]);
+        }
+    }
+    let out = run(&plan, &points, &[]);
+    assert_eq!(out.spaces.windows.len(), 1, "{:?}", out.spaces.windows);
+    let w = &out.spaces.windows[0];
+    let (lo, hi) = (w.a[0].min(w.b[0]), w.a[0].max(w.b[0]));
+    // Each edge is the last point beside the gap: within one point spacing of the truth.
+    for (got, want) in [(lo, x0), (hi, x1), (w.sill_z, z0), (w.head_z, z1)] {
+        assert!((got - want).abs() <= 0.02 + 1e-6, "{got} vs {want}: {w:?}");
+    }
+    assert!((w.width - (x1 - x0)).abs() <= 0.04 + 1e-6, "{w:?}");
+}
+
+#[test]
 fn bad_parameters_are_named() {
     let p = RoomsParams {
         max_door_width: 0.2,

@@ -4,8 +4,8 @@
 use std::f64::consts::{PI, TAU};
 
 use super::rects::{group, outline, point_in_ring, Rect};
-use super::truth::{densify, rotate, TruthDoor, TruthRoom, TruthStory, TruthWall};
-use crate::geom::{add, P2};
+use super::truth::{densify, rotate, TruthDoor, TruthRoom, TruthStory, TruthWall, TruthWindow};
+use crate::geom::{self, add, P2};
 use crate::plan::Polygon;
 
 /// Door openings are this high; the wall above them (the lintel) reaches the ceiling.
@@ -92,11 +92,12 @@ pub enum BuildingKind {
     /// One 6 m × 5 m room, one story.
     SquareRoom,
     /// Three 3 m stories of a 30 m × 20 m office: rooms, a corridor looping around a core and
-    /// a meeting room, doors, a square and a round column, tables.
+    /// a meeting room, doors, a square and a round column, tables, and a window (1.2 m, sill
+    /// 0.9 m, head 2.1 m) in each office's outer wall.
     Office3Story,
     /// A lobby: a rectangle closed by a half-circle wall of radius 10 m, with columns.
     CurvedLobby,
-    /// Two rooms in an L, rotated 27° off the axes.
+    /// Two rooms in an L, rotated 27° off the axes, with three windows of different sizes.
     RotatedL,
     /// A house with a pitched roof: a ground floor whose living room is open to the roof, and
     /// an attic (knee walls 1.2 m, sloped ceiling) with a gallery over the living room and a
@@ -194,6 +195,19 @@ pub(super) struct RectStory {
     pub tables: Vec<Rect>,
     pub stations: Vec<P2>,
     pub route: Vec<P2>,
+    /// Windows in the outer walls.
+    pub windows: Vec<WindowSpec>,
+}
+
+/// A window as a story describes it: its jambs on an outer wall's inner face, its sill and
+/// head above the floor, and the depth of its reveal (the wall's thickness).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct WindowSpec {
+    pub a: P2,
+    pub b: P2,
+    pub sill: f64,
+    pub head: f64,
+    pub depth: f64,
 }
 
 /// A level's open floor and walls, and what rays can hit there.
@@ -202,6 +216,7 @@ pub(super) struct LevelParts {
     pub walls: Vec<TruthWall>,
     pub rooms: Vec<TruthRoom>,
     pub doors: Vec<TruthDoor>,
+    pub windows: Vec<TruthWindow>,
     pub surfaces: Vec<Surface>,
     pub patches: Vec<Patch>,
 }
@@ -256,13 +271,103 @@ impl RectStory {
             }
             patches.push(Patch::from_rect(*t, f + TABLE_HEIGHT));
         }
+        let windows = self
+            .windows
+            .iter()
+            .map(|w| self.cut_window(w, &mut surfaces, &mut patches))
+            .collect();
         LevelParts {
             polygons,
             walls,
             rooms,
             doors,
+            windows,
             surfaces,
             patches,
+        }
+    }
+
+    /// Cuts window `w` out of the wall surface it lies on: wall below the sill and above the
+    /// head, jambs, a sill and a head as deep as the wall, and nothing beyond. Panics when `w`
+    /// lies on no straight wall face or not beside open floor (a bug in a building).
+    fn cut_window(
+        &self,
+        w: &WindowSpec,
+        surfaces: &mut Vec<Surface>,
+        patches: &mut Vec<Patch>,
+    ) -> TruthWindow {
+        let (f, sill, head) = (self.floor_z, self.floor_z + w.sill, self.floor_z + w.head);
+        let on = |a: P2, b: P2, p: P2| geom::point_segment_distance(p, a, b) < 1e-9;
+        let k = surfaces
+            .iter()
+            .position(|s| matches!(s.curve, TruthWall::Line { a, b } if on(a, b, w.a) && on(a, b, w.b) && s.z[0] <= f))
+            .expect("a window lies on a wall face");
+        let Surface { curve, z } = surfaces.remove(k);
+        let TruthWall::Line { a, b } = curve else {
+            unreachable!()
+        };
+        // The wall's ends keep their full height; the window's stretch keeps what is below
+        // the sill and above the head.
+        let (wa, wb) = if geom::dist(a, w.a) < geom::dist(a, w.b) {
+            (w.a, w.b)
+        } else {
+            (w.b, w.a)
+        };
+        let line = |a, b| TruthWall::Line { a, b };
+        surfaces.push(Surface {
+            curve: line(a, wa),
+            z,
+        });
+        surfaces.push(Surface {
+            curve: line(wb, b),
+            z,
+        });
+        surfaces.push(Surface {
+            curve: line(wa, wb),
+            z: [z[0], sill],
+        });
+        surfaces.push(Surface {
+            curve: line(wa, wb),
+            z: [head, z[1]],
+        });
+        let mid = geom::scale(geom::add(w.a, w.b), 0.5);
+        let along = geom::scale(geom::sub(w.b, w.a), 1.0 / geom::dist(w.a, w.b));
+        let left = [-along[1], along[0]];
+        let open = |p: P2| self.open.iter().chain(&self.doors).any(|r| r.contains(p));
+        let outward = if open(geom::add(mid, geom::scale(left, 0.01))) {
+            geom::scale(left, -1.0)
+        } else {
+            left
+        };
+        assert!(
+            open(geom::sub(mid, geom::scale(outward, 0.01))),
+            "a window faces open floor"
+        );
+        let d = geom::scale(outward, w.depth);
+        let (oa, ob) = (geom::add(w.a, d), geom::add(w.b, d));
+        surfaces.push(Surface {
+            curve: line(w.a, oa),
+            z: [sill, head],
+        });
+        surfaces.push(Surface {
+            curve: line(w.b, ob),
+            z: [sill, head],
+        });
+        for z in [sill, head] {
+            patches.push(Patch {
+                corners: [w.a, w.b, ob, oa],
+                z,
+                slope: [0.0, 0.0],
+            });
+        }
+        TruthWindow {
+            a: w.a,
+            b: w.b,
+            width: geom::dist(w.a, w.b),
+            sill_z: sill,
+            head_z: head,
+            depth: w.depth,
+            outward,
         }
     }
 
@@ -286,6 +391,7 @@ impl RectStory {
                 walls: parts.walls,
                 rooms: parts.rooms,
                 doors: parts.doors,
+                windows: parts.windows,
             },
         }
     }
@@ -371,6 +477,9 @@ pub(super) fn transform(mut s: StoryModel, angle: f64, d: P2) -> StoryModel {
     for door in &mut s.truth.doors {
         *door = door.transformed(angle, d);
     }
+    for w in &mut s.truth.windows {
+        *w = w.transformed(angle, d);
+    }
     s
 }
 
@@ -441,6 +550,7 @@ fn office_story(level: usize) -> StoryModel {
         s.doors.push(Rect::new(cx - 0.45, 6.0, cx + 0.45, 6.2));
         s.stations.extend(room_stations(x0, x1, -1.2, 3.4));
         s.tables.push(Rect::new(cx, 2.65, cx + 1.2, 3.35));
+        s.windows.push(office_window(cx, 0.0));
         if k == 0 {
             // A square column, seen from a second station as well.
             s.solid.push(Rect::new(cx + 2.3, 1.3, cx + 2.7, 1.7));
@@ -457,6 +567,7 @@ fn office_story(level: usize) -> StoryModel {
         s.doors.push(Rect::new(cx - 0.45, 13.8, cx + 0.45, 14.0));
         s.stations.extend(room_stations(x0, x1, 1.2, 16.6));
         s.tables.push(Rect::new(cx - 1.2, 16.65, cx, 17.35));
+        s.windows.push(office_window(cx, 20.0));
         if k == last {
             s.round_columns.push(([cx + 3.0, 18.0], 0.25));
             s.stations.push([cx + 3.0, 15.2]);
@@ -477,6 +588,18 @@ fn office_story(level: usize) -> StoryModel {
     route.extend([[1.0, 12.8], [1.0, 10.0]]);
     s.route = route;
     s.into_model()
+}
+
+/// An office room's window: 1.2 m wide at `cx` in the outer wall at `y`, sill 0.9 m, head
+/// 2.1 m, in a 30 cm wall.
+fn office_window(cx: f64, y: f64) -> WindowSpec {
+    WindowSpec {
+        a: [cx - 0.6, y],
+        b: [cx + 0.6, y],
+        sill: 0.9,
+        head: 2.1,
+        depth: 0.3,
+    }
 }
 
 fn curved_lobby() -> StoryModel {
@@ -554,6 +677,7 @@ fn curved_lobby() -> StoryModel {
             ceiling_z: c,
             rooms: polygons.iter().cloned().map(TruthRoom::of).collect(),
             doors: Vec::new(),
+            windows: Vec::new(),
             polygons,
             walls: all_walls,
         },
@@ -574,6 +698,30 @@ fn rotated_l() -> StoryModel {
         doors: vec![Rect::new(2.0, 5.0, 2.9, 5.2)],
         tables: vec![Rect::new(7.5, 1.0, 9.0, 1.8)],
         stations: vec![[9.5, 3.0], [3.5, 2.5], [2.5, 7.6]],
+        // Three windows of different sizes, in three of the outer walls.
+        windows: vec![
+            WindowSpec {
+                a: [5.0, 0.0],
+                b: [6.5, 0.0],
+                sill: 0.9,
+                head: 2.2,
+                depth: 0.3,
+            },
+            WindowSpec {
+                a: [12.0, 1.5],
+                b: [12.0, 2.7],
+                sill: 1.0,
+                head: 2.2,
+                depth: 0.25,
+            },
+            WindowSpec {
+                a: [2.0, 10.0],
+                b: [3.0, 10.0],
+                sill: 0.8,
+                head: 2.0,
+                depth: 0.3,
+            },
+        ],
         route: vec![
             [10.5, 2.5],
             [2.45, 2.5],

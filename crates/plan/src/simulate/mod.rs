@@ -1,7 +1,8 @@
 //! A scanner simulator: synthetic buildings with exact ground truth, scanned by static or mobile
 //! scanners. Used by tests, benchmarks and `asbuilt simulate`.
 //!
-//! - `buildings.rs`: the buildings (walls, doors with lintels, columns, tables) and their truth.
+//! - `buildings.rs`: the buildings (walls, doors with lintels, windows, columns, tables) and
+//!   their truth.
 //! - `scanner.rs`: analytic ray casting against wall segments and arcs, floors and ceilings.
 //! - `truth.rs`: the ground truth per story, exact lines and arcs.
 //! - [`random`]: random buildings (rooms, corridors, closets, columns, bays, any rotation) for
@@ -26,7 +27,7 @@ use rand_distr::Normal;
 use rayon::prelude::*;
 
 pub use buildings::{Building, BuildingKind};
-pub use truth::{Truth, TruthDoor, TruthRoom, TruthStory, TruthWall};
+pub use truth::{Truth, TruthDoor, TruthRoom, TruthStory, TruthWall, TruthWindow};
 
 use crate::cloud::{PointCloud, ScanPose, SourceInfo, TrajectorySample, Viewpoints};
 use crate::geom::{self, P2};

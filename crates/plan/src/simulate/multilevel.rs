@@ -62,6 +62,7 @@ fn story(
             walls: parts.walls.clone(),
             rooms: parts.rooms.clone(),
             doors: parts.doors.clone(),
+            windows: parts.windows.clone(),
         },
     }
 }

@@ -447,6 +447,7 @@ fn into_model(l: Layout, ceiling: f64) -> StoryModel {
             // Rooms and doors are not given for random buildings.
             rooms: Vec::new(),
             doors: Vec::new(),
+            windows: Vec::new(),
         },
     }
 }

@@ -33,6 +33,17 @@ pub fn cast(story: &StoryModel, o: [f64; 3], d: [f64; 3]) -> Option<f64> {
             best = t;
         }
     }
+    // A ray that leaves through a window's outer plane measures nothing: there is no outside.
+    for w in &story.truth.windows {
+        let (a, b) = w.exit();
+        let plane = Surface {
+            curve: TruthWall::Line { a, b },
+            z: [w.sill_z, w.head_z],
+        };
+        if hit_surface(&plane, o, d, best).is_some() {
+            return None;
+        }
+    }
     (best.is_finite() && best > EPS).then_some(best)
 }
 
@@ -191,6 +202,11 @@ mod tests {
         assert!((r - 10.0).abs() < 1e-9, "{r}");
     }
 
+    fn geom_unit(d: [f64; 3]) -> [f64; 3] {
+        let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        d.map(|v| v / n)
+    }
+
     #[test]
     fn doors_show_the_next_room_below_the_lintel_only() {
         let b = BuildingKind::RotatedL.build();
@@ -208,12 +224,27 @@ mod tests {
         let from = fwd([2.45, 2.5]);
         let dir2 =
             crate::simulate::truth::rotate([0.0, 1.0], super::super::buildings::ROTATED_L_ANGLE);
-        let low = cast(s, [from[0], from[1], 1.0], [dir2[0], dir2[1], 0.0]).unwrap();
+        // Below the far wall's window sill (0.8 m).
+        let low = cast(s, [from[0], from[1], 0.5], [dir2[0], dir2[1], 0.0]).unwrap();
         let hit = undo([from[0] + low * dir2[0], from[1] + low * dir2[1]]);
         assert!(
             (hit[1] - 10.0).abs() < 1e-9,
             "through the door to the far wall: {hit:?}"
         );
+        // Between the sill and the head: through the door and out of the window (x 2-3 in
+        // the wall y = 10), so nothing is measured.
+        assert_eq!(
+            cast(s, [from[0], from[1], 1.2], [dir2[0], dir2[1], 0.0]),
+            None
+        );
+        // Up into the window: the underside of its head, 15 cm into the 30 cm reveal.
+        let k = 0.3 / 7.65;
+        let d = geom_unit([dir2[0], dir2[1], k]);
+        let t = cast(s, [from[0], from[1], 1.7], d).unwrap();
+        let p = [from[0] + t * d[0], from[1] + t * d[1]];
+        let z = 1.7 + t * d[2];
+        assert!((z - 2.0).abs() < 1e-9, "the head's underside: {z}");
+        assert!((undo(p)[1] - 10.15).abs() < 1e-9, "{:?}", undo(p));
         let high = cast(s, [from[0], from[1], 2.5], [dir2[0], dir2[1], 0.0]).unwrap();
         let hit = undo([from[0] + high * dir2[0], from[1] + high * dir2[1]]);
         assert!((hit[1] - 5.0).abs() < 1e-9, "the lintel: {hit:?}");

@@ -137,6 +137,52 @@ pub struct TruthStory {
     pub rooms: Vec<TruthRoom>,
     /// Every door between rooms.
     pub doors: Vec<TruthDoor>,
+    /// Every window in an outer wall. Empty where the building has none.
+    pub windows: Vec<TruthWindow>,
+}
+
+/// One window of the truth: a gap in an outer wall's face between a sill and a head, with wall
+/// below and above it and a reveal as deep as the wall behind the face.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TruthWindow {
+    /// One jamb, on the wall's inner face.
+    pub a: P2,
+    /// The other jamb.
+    pub b: P2,
+    /// The window's width, metres.
+    pub width: f64,
+    /// Local height of the sill (the top of the wall below).
+    pub sill_z: f64,
+    /// Local height of the head (the underside of the wall above).
+    pub head_z: f64,
+    /// The reveal's depth: the wall's thickness, from the inner face outwards.
+    pub depth: f64,
+    /// Unit normal of the face pointing out of the building.
+    pub outward: P2,
+}
+
+impl TruthWindow {
+    /// The midpoint of the jambs.
+    pub fn center(&self) -> P2 {
+        geom::scale(geom::add(self.a, self.b), 0.5)
+    }
+
+    /// The window's outer end of its reveal: the plane rays leave the building through.
+    pub fn exit(&self) -> (P2, P2) {
+        let d = geom::scale(self.outward, self.depth);
+        (geom::add(self.a, d), geom::add(self.b, d))
+    }
+
+    /// The window moved by `d` and rotated by `angle` about the origin (rotation first).
+    pub fn transformed(&self, angle: f64, d: P2) -> TruthWindow {
+        let m = |p: P2| geom::add(rotate(p, angle), d);
+        TruthWindow {
+            a: m(self.a),
+            b: m(self.b),
+            outward: rotate(self.outward, angle),
+            ..*self
+        }
+    }
 }
 
 /// One room of the truth.

@@ -5,8 +5,11 @@
 //! `Qto_SpaceBaseQuantities` net floor area, net perimeter and height); each centre-line wall an
 //! `IfcWall` (its axis, and a box of its thickness from floor to ceiling, with
 //! `Pset_WallCommon.IsExternal`); each door or opening an `IfcOpeningElement` voiding the wall
-//! it lies in, filled by an `IfcDoor` for doors; each window an opening filled by an
-//! `IfcWindow`. Lengths are metres.
+//! it lies in (`IfcRelVoidsElement`), filled by an `IfcDoor` for doors; each window an opening
+//! filled by an `IfcWindow` (`IfcRelFillsElement`). Doors and windows bound the rooms they
+//! join or light (`IfcRelSpaceBoundary`, physical, internal between two rooms and external
+//! to the outside); an opening bounds its rooms virtually, through its opening element.
+//! Lengths are metres.
 //!
 //! Written by hand: STEP is a line per entity, and the crates that write IFC are either alpha
 //! or AGPL. The site sits at the plan's world origin (x, y), so the large numbers of a
@@ -374,6 +377,11 @@ impl Writer {
             .iter()
             .map(|r| self.space(story, r, at))
             .collect();
+        let space_of = |room: &Option<String>| -> Option<Id> {
+            let room = room.as_deref()?;
+            let k = story.spaces.rooms.iter().position(|r| r.id == room)?;
+            Some(spaces[k])
+        };
         if !spaces.is_empty() {
             self.aggregate(&format!("storey:{level}"), storey, &spaces);
         }
@@ -404,7 +412,23 @@ impl Writer {
                 bottom: 0.0,
                 top: head - story.floor_z,
             };
-            contained.extend(self.cut(&cut, filling, &hosts, at));
+            let made = self.cut(&cut, filling, &hosts, at);
+            contained.extend(made.filling);
+            // A door bounds the rooms it joins; an opening bounds them virtually, through
+            // the opening element itself.
+            let (element, physical) = match door.kind {
+                DoorKind::Door => (made.filling, true),
+                DoorKind::Opening => (made.opening, false),
+            };
+            if let Some(element) = element {
+                let inside = door.rooms.iter().all(Option::is_some);
+                for (k, room) in door.rooms.iter().enumerate() {
+                    if let Some(space) = space_of(room) {
+                        let key = format!("{}:{k}", door.id);
+                        self.boundary(&key, space, element, physical, inside);
+                    }
+                }
+            }
         }
         for window in &story.spaces.windows {
             let cut = Cut {
@@ -416,7 +440,11 @@ impl Writer {
                 bottom: window.sill_z - story.floor_z,
                 top: window.head_z - story.floor_z,
             };
-            contained.extend(self.cut(&cut, Some(Filling::Window), &hosts, at));
+            let made = self.cut(&cut, Some(Filling::Window), &hosts, at);
+            contained.extend(made.filling);
+            if let (Some(element), Some(space)) = (made.filling, space_of(&window.room)) {
+                self.boundary(&window.id, space, element, true, false);
+            }
         }
         if !contained.is_empty() {
             let g = self.guid(&format!("contains:{level}"));
@@ -509,20 +537,40 @@ impl Writer {
         Some(id)
     }
 
-    /// An opening through the wall under `cut`, and what fills it. Returns the filling (to be
-    /// contained in the storey), if any. Nothing is written when the cut has no size.
+    /// `element` (a door, window or opening) bounds `space`: an `IfcRelSpaceBoundary` as seen
+    /// from the space, logical (no connection geometry), physical for a door or window and
+    /// virtual for an opening, internal when there is a room on the other side.
+    fn boundary(&mut self, key: &str, space: Id, element: Id, physical: bool, internal: bool) {
+        let g = self.guid(&format!("bounds:{key}"));
+        let kind = if physical { ".PHYSICAL." } else { ".VIRTUAL." };
+        let side = if internal { ".INTERNAL." } else { ".EXTERNAL." };
+        self.add(
+            "IFCRELSPACEBOUNDARY",
+            format!("{g},$,$,$,{space},{element},$,{kind},{side}"),
+        );
+    }
+
+    /// An opening through the wall under `cut`, and what fills it: the opening element (when a
+    /// host wall was found) and the filling (to be contained in the storey), each if made.
+    /// Nothing is written when the cut has no size.
     fn cut(
         &mut self,
         cut: &Cut,
         filling: Option<Filling>,
         hosts: &[HostWall],
         storey_at: Id,
-    ) -> Option<Id> {
+    ) -> Made {
+        let none = Made {
+            opening: None,
+            filling: None,
+        };
         let length = dist(cut.a, cut.b);
-        let dir = normalize(sub(cut.b, cut.a)).filter(|_| length > 0.0)?;
+        let Some(dir) = normalize(sub(cut.b, cut.a)).filter(|_| length > 0.0) else {
+            return none;
+        };
         let height = cut.top - cut.bottom;
         if height.is_nan() || height <= 0.0 {
-            return None;
+            return none;
         }
         let host = host(hosts, cut.a, cut.b);
         let thickness = host.map_or(cut.depth, |h| h.wall.thickness.max(cut.depth));
@@ -545,7 +593,13 @@ impl Writer {
             }
             None => None,
         };
-        let filling = filling?;
+        let opening = opening_at.map(|(o, _)| o);
+        let Some(filling) = filling else {
+            return Made {
+                opening,
+                filling: None,
+            };
+        };
         // The filling sits in its opening, or straight in the storey without a host wall.
         let place = match opening_at {
             Some((_, at)) => self.local(Some(at), [0.0; 3], None),
@@ -574,8 +628,19 @@ impl Writer {
             let g = self.guid(&format!("fills:{}", cut.id));
             self.add("IFCRELFILLSELEMENT", format!("{g},$,$,$,{opening},{id}"));
         }
-        Some(id)
+        Made {
+            opening,
+            filling: Some(id),
+        }
     }
+}
+
+/// What [`Writer::cut`] made.
+struct Made {
+    /// The opening element voiding the host wall.
+    opening: Option<Id>,
+    /// The door or window filling it.
+    filling: Option<Id>,
 }
 
 /// A door, opening or window as a cut through a wall, heights relative to the storey.
@@ -646,6 +711,8 @@ mod tests {
         assert_eq!(entities(&step, "IFCDOOR"), 2);
         assert_eq!(entities(&step, "IFCWINDOW"), 1);
         assert_eq!(entities(&step, "IFCRELFILLSELEMENT"), 3);
+        // Each door and the opening bound their two rooms, the window its one.
+        assert_eq!(entities(&step, "IFCRELSPACEBOUNDARY"), 7);
         // Instance numbers run 1, 2, 3, ... and every line is one entity.
         for (i, line) in step
             .lines()
@@ -786,7 +853,16 @@ for st in sorted(f.by_type("IfcBuildingStorey"), key=lambda s: s.Elevation):
                    "shape": shape(w)} for w in walls],
         "doors": sorted(e.Name for e in held if e.is_a("IfcDoor")),
         "windows": sorted(e.Name for e in held if e.is_a("IfcWindow")),
+        # Each filling: its name, the opening it fills and the walls that opening voids.
+        "fills": [[e.Name] + [o.Name for fv in e.FillsVoids for o in [fv.RelatingOpeningElement]]
+                  + [v.RelatingBuildingElement.Name for fv in e.FillsVoids
+                     for v in fv.RelatingOpeningElement.VoidsElements]
+                  for e in held if e.is_a("IfcDoor") or e.is_a("IfcWindow")],
+        "bounds": [[b.RelatingSpace.Name, b.RelatedBuildingElement.is_a(), b.RelatedBuildingElement.Name,
+                    b.PhysicalOrVirtualBoundary, b.InternalOrExternalBoundary]
+                   for s in spaces for b in s.BoundedBy],
     })
+out["openings"] = len(f.by_type("IfcOpeningElement"))
 print(json.dumps(out))
 "#;
         let Some(v) = python::run_json(
@@ -890,6 +966,81 @@ print(json.dumps(out))
                     .collect::<Vec<_>>(),
                 names("window")
             );
+        }
+        // Every door, opening and window has its opening element voiding a wall (all have a
+        // host here); each door and window fills its own, and bounds the rooms it joins or
+        // lights, as the GeoJSON says.
+        let cuts = ["door", "opening", "window"]
+            .iter()
+            .map(|k| (0..storeys.len()).map(|l| of(k, l).len()).sum::<usize>())
+            .sum::<usize>();
+        assert_eq!(v["openings"], cuts);
+        for (level, storey) in storeys.iter().enumerate() {
+            let strings = |x: &serde_json::Value| -> Vec<Vec<String>> {
+                let mut rows: Vec<Vec<String>> = x
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|r| {
+                        r.as_array()
+                            .unwrap()
+                            .iter()
+                            .map(|c| c.as_str().unwrap().to_string())
+                            .collect()
+                    })
+                    .collect();
+                rows.sort();
+                rows
+            };
+            let walls: Vec<String> = of("wall_centerline", level)
+                .iter()
+                .map(|f| f["properties"]["id"].as_str().unwrap().to_string())
+                .collect();
+            let fills = strings(&storey["fills"]);
+            assert_eq!(
+                fills.len(),
+                of("door", level).len() + of("window", level).len()
+            );
+            for row in &fills {
+                assert_eq!(row.len(), 3, "{row:?}");
+                assert_eq!(row[0], row[1], "a filling fills its own opening");
+                assert!(
+                    walls.contains(&row[2]),
+                    "{row:?} voids no wall of the level"
+                );
+            }
+            let mut want = Vec::new();
+            for (kind, entity, physical) in [
+                ("door", "IfcDoor", "PHYSICAL"),
+                ("opening", "IfcOpeningElement", "VIRTUAL"),
+            ] {
+                for f in of(kind, level) {
+                    let p = &f["properties"];
+                    let rooms = p["rooms"].as_array().unwrap();
+                    let side = if rooms.iter().all(|r| r.is_string()) {
+                        "INTERNAL"
+                    } else {
+                        "EXTERNAL"
+                    };
+                    for r in rooms.iter().filter_map(|r| r.as_str()) {
+                        let id = p["id"].as_str().unwrap();
+                        want.push([r, entity, id, physical, side].map(String::from).to_vec());
+                    }
+                }
+            }
+            for f in of("window", level) {
+                let p = &f["properties"];
+                if let Some(r) = p["room"].as_str() {
+                    let id = p["id"].as_str().unwrap();
+                    want.push(
+                        [r, "IfcWindow", id, "PHYSICAL", "EXTERNAL"]
+                            .map(String::from)
+                            .to_vec(),
+                    );
+                }
+            }
+            want.sort();
+            assert_eq!(strings(&storey["bounds"]), want, "level {level}");
         }
         // Level 0: the 12 cm wall holds both doors, the 10 cm wall the opening (unfilled), the
         // south wall the window; the openings cut the walls' solids.
