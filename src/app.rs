@@ -178,6 +178,7 @@ pub async fn start(mut config: Config, pipeline: Arc<dyn Pipeline>) -> anyhow::R
         config.serve_api && config.workers > 0 && pipeline.reads_early(),
         config.data_dir.join("work"),
         config.max_points,
+        config.workers,
     );
     let state = AppState(Arc::new(App {
         webhooks,

@@ -4,8 +4,9 @@
 //! It is only a head start. The upload is stored whole as before, and the job runs from the
 //! stored file whenever the early read is missing (another process, a restart, a retry, a
 //! re-plan), failed (a truncated or corrupt file: the stored file's read then gives the usual
-//! error), or saw other bytes than were stored. One upload at a time is read early, so the
-//! process holds at most one decoded cloud that no worker has taken yet.
+//! error), or saw other bytes than were stored. One upload at a time is read early, and only
+//! while a worker of this process is idle, so the process holds at most one decoded cloud that
+//! no worker has taken yet.
 //!
 //! The bytes go to an unlinked scratch file as the request body passes (the reader may seek),
 //! and a reader thread follows them: a read past what has arrived waits for more. Formats whose
@@ -15,6 +16,7 @@ use std::fs::File;
 use std::io::{Read, Seek, SeekFrom, Write};
 use std::os::unix::fs::FileExt;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -40,6 +42,10 @@ const UNCLAIMED: Duration = Duration::from_secs(600);
 /// The process's early reads: at most one.
 pub struct Early {
     enabled: bool,
+    /// This process's workers, and how many are running a job: a cloud read while every
+    /// worker is busy would wait in memory beside the clouds being planned.
+    workers: usize,
+    busy: AtomicUsize,
     dir: PathBuf,
     max_points: u64,
     slot: Mutex<Option<Pending>>,
@@ -87,13 +93,23 @@ pub struct Decoded {
 impl Early {
     /// `enabled` when this process runs workers that can use a decoded cloud; scratch files go
     /// in `dir`; clouds over `max_points` are left to the worker, which refuses them.
-    pub fn new(enabled: bool, dir: PathBuf, max_points: u64) -> Early {
+    pub fn new(enabled: bool, dir: PathBuf, max_points: u64, workers: usize) -> Early {
         Early {
             enabled,
+            workers,
+            busy: AtomicUsize::new(0),
             dir,
             max_points,
             slot: Mutex::new(None),
         }
+    }
+
+    /// A worker starts (`true`) or ends (`false`) a job.
+    pub fn working(&self, started: bool) {
+        match started {
+            true => self.busy.fetch_add(1, Ordering::Relaxed),
+            false => self.busy.fetch_sub(1, Ordering::Relaxed),
+        };
     }
 
     fn slot(&self) -> MutexGuard<'_, Option<Pending>> {
@@ -105,6 +121,9 @@ impl Early {
     pub fn begin(&self, job: JobId, format: &str, total: Option<u64>) -> Option<Feed> {
         let total = total.filter(|&t| t > 0)?;
         if !self.enabled || !FRONT_TO_BACK.contains(&format) {
+            return None;
+        }
+        if self.busy.load(Ordering::Relaxed) >= self.workers {
             return None;
         }
         // Text declares no count: the read starts only when the file cannot hold more points
@@ -374,7 +393,7 @@ mod tests {
     fn a_read_that_follows_the_bytes_gives_the_files_points() {
         let bytes = ply_bytes();
         let dir = tempfile::tempdir().unwrap();
-        let early = Early::new(true, dir.path().into(), 1_000_000);
+        let early = Early::new(true, dir.path().into(), 1_000_000, 1);
         let job = JobId::new();
         let feed = early
             .begin(job, "ply", Some(bytes.len() as u64))
@@ -408,7 +427,7 @@ mod tests {
     fn a_cut_or_refused_upload_ends_the_read_with_an_error() {
         let bytes = ply_bytes();
         let dir = tempfile::tempdir().unwrap();
-        let early = Early::new(true, dir.path().into(), 1_000_000);
+        let early = Early::new(true, dir.path().into(), 1_000_000, 1);
         // Stored shorter than declared.
         let job = JobId::new();
         let feed = early.begin(job, "ply", Some(bytes.len() as u64)).unwrap();
@@ -433,7 +452,7 @@ mod tests {
     fn a_header_over_the_limit_ends_the_read_before_it_allocates() {
         let bytes = ply_bytes();
         let dir = tempfile::tempdir().unwrap();
-        let early = Early::new(true, dir.path().into(), 100);
+        let early = Early::new(true, dir.path().into(), 100, 1);
         let job = JobId::new();
         let feed = early.begin(job, "ply", Some(bytes.len() as u64)).unwrap();
         feed.push(&bytes);
@@ -445,14 +464,25 @@ mod tests {
     #[test]
     fn only_formats_read_front_to_back_are_read_early() {
         let dir = tempfile::tempdir().unwrap();
-        let early = Early::new(true, dir.path().into(), 1_000_000);
+        let early = Early::new(true, dir.path().into(), 1_000_000, 1);
         for format in ["e57", "laz"] {
             assert!(early.begin(JobId::new(), format, Some(1000)).is_none());
         }
         assert!(early.begin(JobId::new(), "las", None).is_none());
         // Text that could hold more points than the limit.
         assert!(early.begin(JobId::new(), "xyz", Some(6_000_007)).is_none());
-        let off = Early::new(false, dir.path().into(), 1_000_000);
+        let off = Early::new(false, dir.path().into(), 1_000_000, 1);
         assert!(off.begin(JobId::new(), "ply", Some(1000)).is_none());
+        // Not while every worker is busy, nor after a cancelled job's read was forgotten.
+        let early = Early::new(true, dir.path().into(), 1_000_000, 1);
+        early.working(true);
+        assert!(early.begin(JobId::new(), "ply", Some(1000)).is_none());
+        early.working(false);
+        let job = JobId::new();
+        let feed = early.begin(job, "ply", Some(1000));
+        assert!(feed.is_some());
+        early.forget(job);
+        assert!(early.take(job).is_none());
+        assert!(early.begin(JobId::new(), "ply", Some(1000)).is_some());
     }
 }

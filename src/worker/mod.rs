@@ -65,7 +65,9 @@ impl Workers {
                 Ok(Some(job)) => {
                     tracing::info!(job = %job.id, attempt = job.attempts, worker = %owner, "job started");
                     self.state.changed(job.id);
+                    self.state.early.working(true);
                     self.run_job(&owner, job).await;
+                    self.state.early.working(false);
                 }
                 Ok(None) => {
                     tokio::select! {
