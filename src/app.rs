@@ -43,6 +43,8 @@ pub struct App {
     pub shutdown: CancellationToken,
     /// Callback secrets, default URLs and the targets they may reach.
     pub webhooks: crate::webhooks::Settings,
+    /// Uploads read as they arrive, for this process's workers.
+    pub early: crate::worker::early::Early,
 }
 
 /// A cheap handle on [`App`].
@@ -171,8 +173,16 @@ pub async fn start(mut config: Config, pipeline: Arc<dyn Pipeline>) -> anyhow::R
     let shutdown = CancellationToken::new();
     let webhooks =
         crate::webhooks::Settings::from_config(&config).map_err(|e| anyhow::anyhow!(e))?;
+    // Only a worker in this process can use an upload read as it arrived.
+    let early = crate::worker::early::Early::new(
+        config.serve_api && config.workers > 0 && pipeline.reads_early(),
+        config.data_dir.join("work"),
+        config.max_points,
+        config.workers,
+    );
     let state = AppState(Arc::new(App {
         webhooks,
+        early,
         keys: Keys::new(&keys, config.dev_mode()),
         limits: Limits::new(config.rate_limit, config.rate_burst),
         metrics: Metrics::default(),

@@ -26,6 +26,7 @@ pub struct Metrics {
     failures: Mutex<BTreeMap<String, u64>>,
     stages: Mutex<BTreeMap<String, Histogram>>,
     completed: AtomicU64,
+    early_reads: Mutex<BTreeMap<String, u64>>,
 }
 
 impl Metrics {
@@ -42,6 +43,17 @@ impl Metrics {
             .lock()
             .expect("metrics lock")
             .entry(code.to_string())
+            .or_default() += 1;
+    }
+
+    /// An upload read as it arrived, by what became of it at the worker: `used`, or why the
+    /// job read the stored file instead (`failed`, `other_bytes`).
+    pub fn early_read(&self, outcome: &str) {
+        *self
+            .early_reads
+            .lock()
+            .expect("metrics lock")
+            .entry(outcome.to_string())
             .or_default() += 1;
     }
 
@@ -130,6 +142,17 @@ impl Metrics {
             "asbuilt_jobs_succeeded_total {}",
             self.completed.load(Ordering::Relaxed)
         );
+        let _ = writeln!(
+            out,
+            "# HELP asbuilt_early_reads_total Uploads read as they arrived, by outcome at the worker."
+        );
+        let _ = writeln!(out, "# TYPE asbuilt_early_reads_total counter");
+        for (outcome, n) in self.early_reads.lock().expect("metrics lock").iter() {
+            let _ = writeln!(
+                out,
+                "asbuilt_early_reads_total{{outcome=\"{outcome}\"}} {n}"
+            );
+        }
         let _ = writeln!(
             out,
             "# HELP asbuilt_stage_duration_seconds Pipeline stage durations of succeeded jobs."

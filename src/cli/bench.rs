@@ -57,6 +57,19 @@ pub struct BenchArgs {
     /// Skip the read-throughput table.
     #[arg(long)]
     pub no_read_table: bool,
+    /// Formats of the upload table: from an upload's last byte to its job's `succeeded`, read
+    /// as it arrived and from the stored file (the service in this process, one worker).
+    #[arg(long, value_delimiter = ',', default_value = "ply,las,laz")]
+    pub upload_formats: Vec<BenchFormat>,
+    /// Points of the upload table's cloud.
+    #[arg(long, default_value = "17.4M")]
+    pub upload_size: String,
+    /// The upload table's rate in MB/s (0: as fast as the server takes it).
+    #[arg(long, default_value_t = 0.0)]
+    pub upload_rate: f64,
+    /// Skip the upload table.
+    #[arg(long)]
+    pub no_upload_table: bool,
     /// Time each command this many times and keep the fastest run.
     #[arg(long, default_value_t = 1)]
     pub repeat: usize,
@@ -174,6 +187,7 @@ struct Report {
     /// Per size, format and mode run at more than one thread count: each stage's speedup.
     speedups: Vec<Speedup>,
     read_runs: Vec<ReadRun>,
+    upload_runs: Vec<super::bench_upload::UploadRun>,
 }
 
 /// How much faster each stage ran with `threads` threads than with `base_threads`.
@@ -309,7 +323,44 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
         }
     }
 
+    let mut upload_runs = Vec::new();
+    if !args.no_upload_table {
+        let upload_size = parse_count(&args.upload_size)?;
+        let dir = ensure_files(&args.cache, upload_size, &args.upload_formats)?;
+        for &format in &args.upload_formats {
+            let file = dir.join(format.file_name());
+            time_cat(&file, 1)?;
+            for early in [false, true] {
+                let mut best: Option<(f64, f64, u64)> = None;
+                for _ in 0..args.repeat {
+                    let t = super::bench_upload::time_upload(&file, early, args.upload_rate)?;
+                    if best.is_none_or(|b| t.1 < b.1) {
+                        best = Some(t);
+                    }
+                }
+                let (upload_ms, done_ms, read_ms) = best.expect("at least one run");
+                eprintln!(
+                    "bench: upload {} points of {}, read early {early}: last byte to succeeded {:.0} ms",
+                    upload_size,
+                    format.name(),
+                    done_ms
+                );
+                upload_runs.push(super::bench_upload::UploadRun {
+                    points: upload_size,
+                    format: format.name(),
+                    early,
+                    file_bytes: file_len(&file)?,
+                    rate_mb_s: args.upload_rate,
+                    upload_ms,
+                    last_byte_to_done_ms: done_ms,
+                    read_ms,
+                });
+            }
+        }
+    }
+
     let report = Report {
+        upload_runs,
         machine: machine(),
         load_average: std::fs::read_to_string("/proc/loadavg")
             .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
@@ -753,6 +804,30 @@ fn markdown(r: &Report) -> String {
                 mb(x.file_bytes) / (x.info_ms / 1e3),
                 mb(x.peak_rss_bytes),
                 x.peak_rss_bytes as f64 / x.compact_bytes as f64,
+            );
+        }
+    }
+    if !r.upload_runs.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n| format | points | read early | file MB | rate MB/s | upload ms | last byte → succeeded ms | job's read ms |\n|---|---|---|---|---|---|---|---|"
+        );
+        for x in &r.upload_runs {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {:.0} | {} | {:.0} | {:.0} | {} |",
+                x.format,
+                count(x.points),
+                if x.early { "yes" } else { "no" },
+                mb(x.file_bytes),
+                if x.rate_mb_s > 0.0 {
+                    format!("{}", x.rate_mb_s)
+                } else {
+                    "max".into()
+                },
+                x.upload_ms,
+                x.last_byte_to_done_ms,
+                x.read_ms,
             );
         }
     }

@@ -2,6 +2,8 @@
 
 #[cfg(feature = "bench")]
 pub mod bench;
+#[cfg(feature = "bench")]
+mod bench_upload;
 pub mod healthcheck;
 pub mod info;
 pub mod plan;

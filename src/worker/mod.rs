@@ -1,6 +1,7 @@
 //! Background workers: each claims a queued job, runs the pipeline on a blocking thread while
 //! an async heartbeat renews the lease and records progress, then stores the results.
 
+pub mod early;
 pub mod fake;
 pub mod pipeline;
 pub mod progress;
@@ -64,7 +65,9 @@ impl Workers {
                 Ok(Some(job)) => {
                     tracing::info!(job = %job.id, attempt = job.attempts, worker = %owner, "job started");
                     self.state.changed(job.id);
+                    self.state.early.working(true);
                     self.run_job(&owner, job).await;
+                    self.state.early.working(false);
                 }
                 Ok(None) => {
                     tokio::select! {
@@ -171,8 +174,40 @@ impl Workers {
                 }
             }
         };
+        // An upload this process read as it arrived needs no fetch, when the read saw the
+        // bytes stored; anything else runs from the stored file.
+        let early = match self.state.early.take(job.id) {
+            Some(pending) if job.input_job == job.id => {
+                let expected = job.upload.bytes;
+                let metrics = &self.state.metrics;
+                match tokio::task::spawn_blocking(move || pending.finish()).await {
+                    Ok(Ok(d)) if d.bytes == expected => {
+                        metrics.early_read("used");
+                        Some(early::EarlyCloud::new(d))
+                    }
+                    Ok(Ok(d)) => {
+                        metrics.early_read("other_bytes");
+                        tracing::warn!(job = %job.id, read = d.bytes, stored = expected, "early read saw other bytes; reading the stored upload");
+                        None
+                    }
+                    failed => {
+                        let why = match failed {
+                            Ok(Err(why)) => why,
+                            _ => "the early read's thread was lost".to_string(),
+                        };
+                        metrics.early_read("failed");
+                        tracing::info!(job = %job.id, why = %why, "early read failed; reading the stored upload");
+                        None
+                    }
+                }
+            }
+            _ => None,
+        };
         // A re-plan reads the upload of the job it came from.
-        let cloud = fetch(keys::cloud(job.input_job), "cloud").await?;
+        let cloud = match early {
+            Some(_) => scratch.join("cloud"),
+            None => fetch(keys::cloud(job.input_job), "cloud").await?,
+        };
         let sidecar = match job
             .upload
             .sidecar
@@ -189,6 +224,7 @@ impl Workers {
             params,
             max_points: self.state.config.max_points,
             georeference: job.upload.georeference.clone(),
+            early,
         })
     }
 

@@ -7,8 +7,9 @@ use asbuilt_plan::io::outputs::{Output, OUTPUTS};
 use asbuilt_plan::io::ReadOptions;
 use asbuilt_plan::progress::{Progress, Stage};
 use asbuilt_plan::FloorPlan;
-use asbuilt_plan::{plan_scan, Cancelled, Params, Planned, RunError, Scan};
+use asbuilt_plan::{plan_decoded, plan_scan, Cancelled, Params, Planned, RunError, Scan};
 
+use super::early::EarlyCloud;
 use crate::errors::JobCode;
 use crate::queue::JobId;
 
@@ -26,6 +27,8 @@ pub struct JobInput {
     pub max_points: u64,
     /// The client's georeference, if it gave one.
     pub georeference: Option<asbuilt_plan::georef::Georeference>,
+    /// The cloud, read as the upload arrived (`cloud` is then not fetched).
+    pub early: Option<EarlyCloud>,
 }
 
 /// A finished run's files and summary.
@@ -109,6 +112,11 @@ pub trait Pipeline: Send + Sync + 'static {
         input: &JobInput,
         progress: &mut dyn Progress,
     ) -> Result<JobResults, PipelineFailure>;
+
+    /// True when [`JobInput::early`] is used; uploads are then read as they arrive.
+    fn reads_early(&self) -> bool {
+        false
+    }
 }
 
 /// The point-count limit, shared by every pipeline.
@@ -135,6 +143,10 @@ fn hide_path(message: String, path: &Path, name: &str) -> String {
 }
 
 impl Pipeline for PlanPipeline {
+    fn reads_early(&self) -> bool {
+        true
+    }
+
     fn run(
         &self,
         input: &JobInput,
@@ -149,7 +161,11 @@ impl Pipeline for PlanPipeline {
             max_points: Some(input.max_points),
             georeference: input.georeference.clone(),
         };
-        let Planned { plan, .. } = plan_scan(&scan, progress).map_err(|e| failure(e, input))?;
+        let planned = match input.early.as_ref().and_then(EarlyCloud::take) {
+            Some(d) => plan_decoded(&scan, d.cloud, d.read_ms, progress),
+            None => plan_scan(&scan, progress),
+        };
+        let Planned { plan, .. } = planned.map_err(|e| failure(e, input))?;
         progress.report(Stage::Write, 1.0);
         JobResults::of(&plan)
     }

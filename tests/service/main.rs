@@ -12,6 +12,7 @@ mod backends;
 mod browser;
 mod cli;
 mod deploy_manifests;
+mod early_read;
 mod hostile;
 mod integrating;
 mod job_api;

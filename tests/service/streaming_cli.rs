@@ -147,6 +147,10 @@ fn bench_reports_stages_memory_and_reads() {
         "60k",
         "--read-formats",
         "ply,xyz",
+        "--upload-size",
+        "60k",
+        "--upload-formats",
+        "ply",
         "--cache",
         &cache,
         "--json",
@@ -166,6 +170,14 @@ fn bench_reports_stages_memory_and_reads() {
         assert!(run["stages_ms"]["samples"].is_u64(), "{run}");
     }
     assert_eq!(doc["read_runs"].as_array().unwrap().len(), 2);
+    // The upload table: the stored file's run and the early read's, each to `succeeded`.
+    let uploads = doc["upload_runs"].as_array().unwrap();
+    assert_eq!(uploads.len(), 2, "{uploads:?}");
+    for (run, early) in uploads.iter().zip([false, true]) {
+        assert_eq!(run["early"], early);
+        assert!(run["last_byte_to_done_ms"].as_f64().unwrap() > 0.0, "{run}");
+    }
+    assert!(table.contains("| ply | 60k | yes |"), "{table}");
     // The cloud is cached: a second run simulates nothing.
     let again = ok(asbuilt(&[
         "bench",
@@ -174,6 +186,7 @@ fn bench_reports_stages_memory_and_reads() {
         "--formats",
         "ply",
         "--no-read-table",
+        "--no-upload-table",
         "--cache",
         &cache,
         "--json",

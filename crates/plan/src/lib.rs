@@ -57,5 +57,5 @@ pub use params::Params;
 pub use pipeline::{plan, PlanError};
 pub use plan::FloorPlan;
 pub use progress::{NoProgress, Progress, Stage};
-pub use run::{plan_scan, Planned, RunError, Scan};
+pub use run::{plan_decoded, plan_scan, Planned, RunError, Scan};
 pub use streaming::StreamingParams;

@@ -7,6 +7,7 @@ use std::sync::mpsc::{self, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
 use crate::cancel::Cancelled;
+use crate::cloud::PointCloud;
 use crate::georef::Georeference;
 use crate::io::{self, BytesRead, ReadError, ReadOptions, SidecarKind, UnitsError};
 use crate::params::Params;
@@ -153,7 +154,7 @@ pub fn plan_scan(scan: &Scan<'_>, progress: &mut dyn Progress) -> Result<Planned
             .map_err(|c| ReadError::Cancelled(c, scan.cloud.display().to_string()))?;
         check_points(declared.unwrap_or(0), max)?;
     }
-    let mut planned = match &scan.stream {
+    let planned = match &scan.stream {
         None => {
             let total = std::fs::metadata(scan.cloud).map_or(0, |m| m.len());
             let cloud = read_reporting(
@@ -162,18 +163,7 @@ pub fn plan_scan(scan: &Scan<'_>, progress: &mut dyn Progress) -> Result<Planned
                 total,
                 progress,
             )?;
-            if let Some(max) = scan.max_points {
-                check_points(cloud.len() as u64, max)?;
-            }
-            io::check_units(&cloud)?;
-            let read_ms = ms(start);
-            progress.cancel().check().map_err(PlanError::from)?;
-            let mut plan = pipeline::plan(&cloud, scan.params, progress)?;
-            add_time(&mut plan, Stage::Read.name(), read_ms);
-            Planned {
-                plan,
-                streamed: None,
-            }
+            plan_in_memory(scan, cloud, start, progress)?
         }
         Some(stream) => {
             let sidecar = scan
@@ -201,7 +191,57 @@ pub fn plan_scan(scan: &Scan<'_>, progress: &mut dyn Progress) -> Result<Planned
             }
         }
     };
-    if let Some(s) = read.scale {
+    Ok(finish(scan, planned, read.scale))
+}
+
+/// Plans a cloud read before the run began, from the bytes of `scan.cloud` as they arrived (the
+/// service decodes an upload while it streams in). The sidecar is attached here, and the point
+/// limit, the units check and the notes are [`plan_scan`]'s, so the plan is the one
+/// [`plan_scan`] makes of the file. `read_ms` is what the read took after the last byte came;
+/// `scan.stream` is ignored (the cloud is already whole).
+pub fn plan_decoded(
+    scan: &Scan<'_>,
+    mut cloud: PointCloud,
+    read_ms: u64,
+    progress: &mut dyn Progress,
+) -> Result<Planned, RunError> {
+    progress.report(Stage::Read, 0.0);
+    let start = Instant::now()
+        .checked_sub(Duration::from_millis(read_ms))
+        .unwrap_or_else(Instant::now);
+    if let Some((kind, file)) = scan.sidecar {
+        io::sidecar::read_scaled(kind, file, scan.read.scale)?
+            .attach(&mut cloud)
+            .map_err(|e| io::sidecar::misfit(file, e))?;
+    }
+    let planned = plan_in_memory(scan, cloud, start, progress)?;
+    Ok(finish(scan, planned, scan.read.scale))
+}
+
+/// The in-memory run after the read: the point limit, the units check, the stages.
+fn plan_in_memory(
+    scan: &Scan<'_>,
+    cloud: PointCloud,
+    start: Instant,
+    progress: &mut dyn Progress,
+) -> Result<Planned, RunError> {
+    if let Some(max) = scan.max_points {
+        check_points(cloud.len() as u64, max)?;
+    }
+    io::check_units(&cloud)?;
+    let read_ms = ms(start);
+    progress.cancel().check().map_err(PlanError::from)?;
+    let mut plan = pipeline::plan(&cloud, scan.params, progress)?;
+    add_time(&mut plan, Stage::Read.name(), read_ms);
+    Ok(Planned {
+        plan,
+        streamed: None,
+    })
+}
+
+/// The notes every run adds: the scale, the given georeference.
+fn finish(scan: &Scan<'_>, mut planned: Planned, scale: Option<f64>) -> Planned {
+    if let Some(s) = scale {
         planned
             .plan
             .notes
@@ -216,7 +256,7 @@ pub fn plan_scan(scan: &Scan<'_>, progress: &mut dyn Progress) -> Result<Planned
         }
         planned.plan.georeference = Some(g.clone());
     }
-    Ok(planned)
+    planned
 }
 
 /// How often the bytes read are passed on: often enough for a moving bar, rarely enough to
@@ -312,6 +352,50 @@ mod tests {
         fn story(&mut self, number: usize, count: usize) {
             self.stories.push((number, count));
         }
+    }
+
+    #[test]
+    fn a_cloud_decoded_beforehand_gives_the_files_plan() {
+        use crate::simulate::{simulate, BuildingKind, ScanOptions};
+        let dir = tempfile::tempdir().unwrap();
+        let options = ScanOptions {
+            points: 60_000,
+            seed: 5,
+            ..Default::default()
+        };
+        let sim = simulate(BuildingKind::SquareRoom, &options).unwrap();
+        let path = dir.path().join("room.ply");
+        io::ply::write_ply(&path, &sim.cloud, io::ply::Encoding::BinaryLittleEndian).unwrap();
+        let params = Params::default();
+        let scan = Scan {
+            cloud: &path,
+            sidecar: None,
+            read: ReadOptions::default(),
+            params: &params,
+            stream: None,
+            max_points: Some(1_000_000),
+            georeference: None,
+        };
+        let untimed = |mut plan: FloorPlan| {
+            plan.timings_ms.clear();
+            crate::io::geojson::to_geojson_string(&plan)
+        };
+        let from_file = plan_scan(&scan, &mut NoProgress).unwrap().plan;
+        let cloud = io::read_cloud(&path).unwrap();
+        let decoded = plan_decoded(&scan, cloud.clone(), 7, &mut NoProgress).unwrap();
+        assert!(decoded
+            .plan
+            .timings_ms
+            .iter()
+            .any(|(n, t)| n == "read" && *t >= 7));
+        assert_eq!(untimed(decoded.plan), untimed(from_file));
+        // The limit holds for a decoded cloud too.
+        let small = Scan {
+            max_points: Some(10),
+            ..scan.clone()
+        };
+        let refused = plan_decoded(&small, cloud, 0, &mut NoProgress).unwrap_err();
+        assert_eq!(refused.code(), "too_many_points");
     }
 
     #[test]

@@ -19,6 +19,8 @@ pub async fn cancel(
     let Some(job) = state.store.cancel(&tenant, id).await? else {
         return Err(super::missing(&state, &tenant, id).await);
     };
+    // A cloud read early for the job is not kept for a worker that will not come.
+    state.early.forget(id);
     match job.status {
         JobStatus::Cancelled => {
             state.changed(id);

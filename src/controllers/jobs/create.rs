@@ -143,7 +143,7 @@ async fn accept(
     let received = if multipart {
         receive_multipart(state, id, request, true).await
     } else {
-        receive_raw(state, id, request.into_body())
+        receive_raw(state, id, request.into_body(), declared)
             .await
             .map(|cloud| Received {
                 cloud: Some(cloud),
@@ -159,6 +159,7 @@ async fn accept(
     let received = match received {
         Ok(r) => r,
         Err(e) => {
+            state.early.forget(id);
             if let Err(d) = state.blobs.delete_prefix(&keys::job_prefix(id)).await {
                 tracing::error!(job = %id, error = %d, "removing a refused upload");
             }
@@ -282,25 +283,31 @@ pub fn params_error(e: &ParamsError, key: Option<&str>) -> ApiError {
     )
 }
 
+/// A raw body of a declared length is also read as it arrives (`worker::early`), so the job's
+/// worker may find its points decoded.
 async fn receive_raw(
     state: &AppState,
     id: JobId,
     body: Body,
+    declared: Option<u64>,
 ) -> Result<(Stored, &'static str), ApiError> {
     let stream: ByteStream<'static> = body
         .into_data_stream()
         .map_err(std::io::Error::other)
         .boxed();
-    store_cloud(state, id, stream).await
-}
-
-async fn store_cloud(
-    state: &AppState,
-    id: JobId,
-    stream: ByteStream<'_>,
-) -> Result<(Stored, &'static str), ApiError> {
     let (format, stream) = sniff(stream).await?;
-    store_sniffed(state, id, format, stream).await
+    let Some(feed) = state.early.begin(id, format, declared) else {
+        return store_sniffed(state, id, format, stream).await;
+    };
+    let feed = Arc::new(feed);
+    let tap = feed.clone();
+    let stream = stream.inspect_ok(move |chunk| tap.push(chunk)).boxed();
+    let stored = store_sniffed(state, id, format, stream).await?;
+    // The stream (and its clone of the feed) is gone once stored.
+    if let Ok(feed) = Arc::try_unwrap(feed) {
+        feed.finish(stored.0.bytes);
+    }
+    Ok(stored)
 }
 
 async fn store_sniffed(

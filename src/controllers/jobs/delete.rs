@@ -19,6 +19,7 @@ pub async fn delete(
         return Err(super::missing(&state, &tenant, id).await);
     };
     state.store.delete(id).await?;
+    state.early.forget(id);
     // A re-plan may still read this job's upload; it stays until the last reader goes.
     retire::remove_blobs(&state, id, job.input_job)
         .await

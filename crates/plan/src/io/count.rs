@@ -41,6 +41,17 @@ pub fn declared_points(path: &Path, cancel: &Cancel) -> Result<Option<u64>, Canc
     })
 }
 
+/// The number of points a cloud's first bytes declare (PLY and LAS/LAZ headers), for a caller
+/// that has only the start of the file (the service, while the upload arrives). `None` for other
+/// formats and for a head that does not hold the whole header.
+pub fn declared_points_in_head(head: &[u8]) -> Option<u64> {
+    match detect::detect(head) {
+        Ok(Format::Ply) => super::ply::declared_vertices(head),
+        Ok(Format::Las | Format::Laz) => super::las::declared_points(&mut &head[..]),
+        _ => None,
+    }
+}
+
 /// Lines that hold a point: at least three fields, the first a number. Comments, column names
 /// and PTS count lines do not count.
 fn text_points(file: File, cancel: &Cancel) -> Result<Option<u64>, Cancelled> {
@@ -104,6 +115,21 @@ mod tests {
             let n = declared_points(&at(name), &Cancel::never());
             assert_eq!(n, Ok(Some(1000)), "{name}");
         }
+        // The headers tell from the file's first bytes; E57 (its XML is last) and text do not.
+        for (name, declared) in [
+            ("a.ply", Some(1000)),
+            ("b.ply", Some(1000)),
+            ("a.las", Some(1000)),
+            ("a.laz", Some(1000)),
+            ("a.e57", None),
+            ("a.xyz", None),
+        ] {
+            let bytes = std::fs::read(at(name)).unwrap();
+            let head = &bytes[..bytes.len().min(4096)];
+            assert_eq!(declared_points_in_head(head), declared, "{name}");
+        }
+        let ply = std::fs::read(at("a.ply")).unwrap();
+        assert_eq!(declared_points_in_head(&ply[..30]), None);
     }
 
     #[test]

@@ -28,7 +28,7 @@ use std::sync::Arc;
 
 use crate::cancel::{Cancel, Cancelled};
 use crate::cloud::{PointCloud, Viewpoints};
-pub use count::declared_points;
+pub use count::{declared_points, declared_points_in_head};
 pub use detect::Format;
 pub use sidecar::{Sidecar, SidecarKind};
 pub use units::{check_units, UnitsError};
