@@ -354,18 +354,24 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_cloud_decoded_beforehand_gives_the_files_plan() {
+    /// A simulated 60,000-point square room written as binary PLY in `dir`.
+    fn square_room_ply(dir: &Path, seed: u64) -> std::path::PathBuf {
         use crate::simulate::{simulate, BuildingKind, ScanOptions};
-        let dir = tempfile::tempdir().unwrap();
         let options = ScanOptions {
             points: 60_000,
-            seed: 5,
+            seed,
             ..Default::default()
         };
         let sim = simulate(BuildingKind::SquareRoom, &options).unwrap();
-        let path = dir.path().join("room.ply");
+        let path = dir.join("room.ply");
         io::ply::write_ply(&path, &sim.cloud, io::ply::Encoding::BinaryLittleEndian).unwrap();
+        path
+    }
+
+    #[test]
+    fn a_cloud_decoded_beforehand_gives_the_files_plan() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = square_room_ply(dir.path(), 5);
         let params = Params::default();
         let scan = Scan {
             cloud: &path,
@@ -400,16 +406,8 @@ mod tests {
 
     #[test]
     fn reading_reports_its_bytes_and_each_story_its_number() {
-        use crate::simulate::{simulate, BuildingKind, ScanOptions};
         let dir = tempfile::tempdir().unwrap();
-        let options = ScanOptions {
-            points: 60_000,
-            seed: 3,
-            ..Default::default()
-        };
-        let sim = simulate(BuildingKind::SquareRoom, &options).unwrap();
-        let path = dir.path().join("room.ply");
-        io::ply::write_ply(&path, &sim.cloud, io::ply::Encoding::BinaryLittleEndian).unwrap();
+        let path = square_room_ply(dir.path(), 3);
         let total = std::fs::metadata(&path).unwrap().len();
         let params = Params::default();
         let scan = Scan {
