@@ -305,6 +305,7 @@ pub(crate) fn plan_stories(
     let mut notes = Vec::new();
     let mut plans = Vec::new();
     let mut min_points_used = Vec::new();
+    let mut min_points_lowest = Vec::new();
     let mut failures = Vec::new();
     let mut codes = Vec::new();
     // Open area in all, and the part viewpoint evidence forced inside.
@@ -328,12 +329,14 @@ pub(crate) fn plan_stories(
             Ok(StoryOutcome {
                 plan: story_plan,
                 min_points_used: used,
+                min_points_lowest: lowest,
                 notes: story_notes,
                 forced,
             }) => {
                 evidence.0 += forced.0;
                 evidence.1 += forced.1;
                 min_points_used.push(used);
+                min_points_lowest.push(lowest);
                 notes.extend(
                     assumed
                         .into_iter()
@@ -366,6 +369,7 @@ pub(crate) fn plan_stories(
     }
     if params.samples.min_points.is_none() {
         parameters["samples"]["min_points_derived"] = serde_json::json!(min_points_used);
+        parameters["samples"]["min_points_derived_lowest"] = serde_json::json!(min_points_lowest);
     }
     timings.add("total", start.elapsed().as_secs_f64() * 1e3);
     progress.report(Stage::Write, 1.0);
@@ -502,6 +506,7 @@ fn plan_story(
     Ok(StoryOutcome {
         plan,
         min_points_used: samples.min_points_used,
+        min_points_lowest: samples.min_points_lowest,
         notes,
         forced,
     })
@@ -511,6 +516,8 @@ fn plan_story(
 struct StoryOutcome {
     plan: StoryPlan,
     min_points_used: usize,
+    /// The lowest threshold any of its cells was held to.
+    min_points_lowest: usize,
     notes: Vec<String>,
     /// The inside area that evidence forced inside, and the inside area, m².
     forced: (f64, f64),

@@ -236,6 +236,15 @@ impl Tests {
         self.run_binned(pts, &bins, lo, cell, min_points, &mut Vec::new())
     }
 
+    /// Whether any of the height-bin codes `bins` lies in the lower half of the wall, above
+    /// the floor's bin. A cell in a door gap holds the floor and the lintel, nothing between;
+    /// a sparsely seen wall has points all the way down. Where each neighbourhood is measured
+    /// against its own top or bottom the codes say nothing, and every cell counts as seen low.
+    pub fn seen_low(&self, bins: &[u8]) -> bool {
+        let half = (self.bins / 2) as u8;
+        self.local() || bins.iter().any(|&b| b >= 1 && b < half)
+    }
+
     /// [`Self::bin_of`] as a byte, [`NO_BIN`] for `None`, for storing beside each point.
     #[inline]
     pub fn bin_code(&self, z: f32) -> u8 {

@@ -12,6 +12,7 @@ mod coverage;
 pub(crate) mod grid;
 mod shallow;
 mod spacing;
+mod threshold;
 mod views;
 
 use std::ops::Range;
@@ -30,6 +31,7 @@ pub(crate) use cell::FLOORLESS_REACH;
 use cell::{Reject, Tests};
 use grid::{Carry, Grid, Points, Screen, Summary};
 pub use spacing::SpacingProbe;
+use threshold::Thresholds;
 use views::Views;
 
 /// Parameters of [`sample_walls`].
@@ -40,8 +42,10 @@ pub struct SamplesParams {
     pub cell_size: f64,
     /// Minimum points in a cell's neighbourhood (§3.1: "|N_g| >= 50"). `None` derives it from
     /// the measured point density (beyond the paper): an eighth of the median neighbourhood
-    /// count of the cells whose heights look like a wall, clamped to 10..=50. The value chosen
-    /// is reported as [`WallSamples::min_points_used`]. Range 1..=100000.
+    /// count of the cells whose heights look like a wall, clamped to 10..=50, and lower (down
+    /// to 5) where no wall cell within 25 cm is eight times denser (`threshold`).
+    /// The values chosen are reported as [`WallSamples::min_points_used`] and
+    /// [`WallSamples::min_points_lowest`]. Range 1..=100000.
     pub min_points: Option<usize>,
     /// Minimum vertical support, metres (§3.1: the minimum wall height, ~2 m). Range 0.1..=10.
     pub min_wall_height: f64,
@@ -118,8 +122,11 @@ pub struct WallSamples {
     pub viewpoints: Vec<P2>,
     /// The mobile scanner's path through this story, in time order; empty for static scans.
     pub path: Vec<P2>,
-    /// The neighbourhood point threshold actually used (given or derived).
+    /// The neighbourhood point threshold actually used (given or derived), story-wide.
     pub min_points_used: usize,
+    /// The lowest threshold any cell was held to: below the story-wide one where the walls
+    /// around were sparser (derived thresholds only).
+    pub min_points_lowest: usize,
     /// Cells that passed every test before the range filter, for reports.
     pub cells_tested: usize,
     /// Metres of wall seen too little under the ceiling to stand alone (floorless stories),
@@ -186,10 +193,6 @@ pub enum SamplesError {
     #[error(transparent)]
     Cancelled(#[from] Cancelled),
 }
-
-/// The derived threshold stays within these bounds: below 10 points the height tests mean
-/// little; 50 is the paper's value for dense scans.
-const ADAPTIVE_RANGE: (usize, usize) = (10, 50);
 
 /// Extracts the wall samples of one story; stops with `Cancelled` once `cancel` says so.
 pub fn sample_walls(
@@ -287,7 +290,8 @@ pub(crate) fn scan_cells(
         Carry::Times if cloud.time.is_empty() => Carry::Nothing,
         c => c,
     };
-    let min_points = params.min_points.unwrap_or(ADAPTIVE_RANGE.0);
+    // The lowest a derived threshold may be; the cells' own are applied afterwards.
+    let min_points = params.min_points.unwrap_or(threshold::FLOOR);
     let grid = Grid::build(
         points,
         spans,
@@ -358,12 +362,23 @@ pub(crate) fn finish_samples(
         found.sort_by_key(|f| f.0);
     }
     let found: Vec<Found> = found.into_iter().map(|f| f.1).collect();
-    let min_points_used = params
-        .min_points
-        .unwrap_or_else(|| adaptive_min_points(&found));
+    let thresholds = match params.min_points {
+        Some(n) => Thresholds::fixed(n),
+        None => {
+            // Shallow cells are not yet walls: they say nothing of how dense walls are.
+            let cells: Vec<(P2, usize)> = found
+                .iter()
+                .filter(|f| !f.shallow)
+                .map(|f| (f.at, f.count))
+                .collect();
+            Thresholds::derive(&cells, params.cell_size)
+        }
+    };
+    let min_points_used = thresholds.global;
     let walls: Vec<&Found> = found
         .iter()
-        .filter(|f| f.count >= min_points_used && f.sample.is_some())
+        .filter(|f| f.count >= thresholds.at(f.at) && (f.low || f.count >= min_points_used))
+        .filter(|f| f.sample.is_some())
         .collect();
     let cells_tested = walls.len();
     let near: Vec<&Found> = walls
@@ -418,6 +433,7 @@ pub(crate) fn finish_samples(
         viewpoints: views.viewpoints,
         path: views.path,
         min_points_used,
+        min_points_lowest: thresholds.lowest(),
         cells_tested,
         shallow_kept,
         underlay,
@@ -473,27 +489,6 @@ fn check_values(params: &SamplesParams) -> Result<(), SamplesError> {
     Ok(())
 }
 
-/// An eighth of the median neighbourhood count of the wall-like cells (those whose height
-/// profile passed), clamped to [`ADAPTIVE_RANGE`]. The median is robust to the few very dense
-/// cells next to a scanner. Density falls with the square of the range and with the grazing
-/// angle, so a wall 7 m away at 60° holds a fifth of the points of one 3 m away head-on: an
-/// eighth keeps such walls (a quarter lost the far corners of simulated offices) while the
-/// height tests still drop stray cells.
-fn adaptive_min_points(found: &[Found]) -> usize {
-    // Shallow cells are not yet walls: they say nothing of how dense walls are.
-    let mut counts: Vec<usize> = found
-        .iter()
-        .filter(|f| !f.shallow)
-        .map(|f| f.count)
-        .collect();
-    if counts.is_empty() {
-        return ADAPTIVE_RANGE.0;
-    }
-    let mid = counts.len() / 2;
-    let median = *counts.select_nth_unstable(mid).1;
-    (median / 8).clamp(ADAPTIVE_RANGE.0, ADAPTIVE_RANGE.1)
-}
-
 fn describe_rejections(tally: &[usize; 6], min_points: usize, found: &[Found]) -> String {
     let parts: Vec<String> = Reject::ALL
         .iter()
@@ -512,6 +507,8 @@ fn describe_rejections(tally: &[usize; 6], min_points: usize, found: &[Found]) -
 /// A wall-like cell: its neighbourhood count and, when it passed every test, its sample and
 /// the distance to its nearest scanner.
 struct Found {
+    /// The cell's centre.
+    at: P2,
     count: usize,
     sample: Option<WallSample>,
     nearest: Option<f64>,
@@ -519,6 +516,9 @@ struct Found {
     why: Option<Reject>,
     /// Seen too little under the ceiling to be a wall on its own (floorless stories).
     shallow: bool,
+    /// Points in the lower half of the wall's height: only such a cell may be held to a
+    /// threshold below the story-wide one (a door gap's lintel is seen high up only).
+    low: bool,
 }
 
 /// What one grid row yields: wall-like cells and the rejections by reason.
@@ -607,6 +607,7 @@ impl Scan<'_> {
         }
         self.gather(i, j, s);
         let lo = g.frame.corner(i, j);
+        let at = [lo[0] + g.frame.cell / 2.0, lo[1] + g.frame.cell / 2.0];
         let count = s.pts.len();
         let wall = match self.tests.run_binned(
             &s.pts,
@@ -620,11 +621,13 @@ impl Scan<'_> {
             Err(r) if r.wall_like() => {
                 let zmin = s.pts.iter().fold(f32::INFINITY, |m, p| m.min(p[2]));
                 return Ok(Some(Found {
+                    at,
                     count,
                     sample: None,
                     nearest: None,
                     why: Some(r),
                     shallow: self.tests.shallow(zmin),
+                    low: self.tests.seen_low(&s.bins),
                 }));
             }
             Err(r) => return Err(r),
@@ -633,6 +636,7 @@ impl Scan<'_> {
             .views
             .observe(&s.slots, &s.times, count, wall.pos, wall.normal);
         Ok(Some(Found {
+            at,
             count,
             sample: Some(WallSample {
                 pos: wall.pos,
@@ -643,6 +647,7 @@ impl Scan<'_> {
             nearest: seen.nearest,
             why: None,
             shallow: wall.shallow,
+            low: self.tests.seen_low(&s.bins),
         }))
     }
 

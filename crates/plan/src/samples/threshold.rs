@@ -1,0 +1,163 @@
+//! The neighbourhood count a wall cell needs (§3.1: |N_g| >= 50), derived from the density of
+//! the walls next to it (beyond the paper).
+//!
+//! The story-wide value is an eighth of the median count of its wall-like cells, clamped to
+//! [`RANGE`]. One value does not fit a scan whose density varies a lot over the floor: a
+//! mobile scanner walks the corridors and only steps into the rooms, so the rooms' far walls
+//! hold a tenth of the points of the corridor walls, and the median sits between the two.
+//!
+//! What the count must rule out is a stray cell beside a well-scanned wall: range noise and
+//! mixed pixels spread a thin, full-height halo of points off each face, which the height
+//! tests alone pass. Such a cell has a far denser wall cell within a few cells of it. So each
+//! cell needs an eighth of the densest wall-like cell within [`NEAR`] of it, no less than
+//! [`FLOOR`] and never more than the story-wide value: a sparse wall that nothing denser
+//! stands next to is judged against itself.
+
+use std::collections::HashMap;
+
+use crate::geom::P2;
+
+/// The story-wide value stays within these bounds: 50 is the paper's value for dense scans.
+pub(super) const RANGE: (usize, usize) = (10, 50);
+/// No cell passes with fewer points. With the density-aware height histogram, five points
+/// still have to spread over 2 m of height and most of the interior bins.
+pub(super) const FLOOR: usize = 5;
+/// A denser wall cell this near makes a cell's threshold, metres: farther than a halo of
+/// range noise reaches off a face.
+const NEAR: f64 = 0.25;
+
+/// The thresholds of one story.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Thresholds {
+    /// The story-wide value.
+    pub global: usize,
+    /// Cell width, metres.
+    cell: f64,
+    /// Per cell (its centre over the width, rounded), the value where it is below the
+    /// story-wide one.
+    local: HashMap<(i64, i64), usize>,
+}
+
+impl Thresholds {
+    /// Derives the thresholds from the wall-like cells, each one's centre and neighbourhood
+    /// count, on a grid of `cell` metres.
+    pub fn derive(cells: &[(P2, usize)], cell: f64) -> Thresholds {
+        let mut all: Vec<usize> = cells.iter().map(|c| c.1).collect();
+        let global = match all.len() {
+            0 => RANGE.0,
+            n => (*all.select_nth_unstable(n / 2).1 / 8).clamp(RANGE.0, RANGE.1),
+        };
+        let key = |p: P2| ((p[0] / cell).round() as i64, (p[1] / cell).round() as i64);
+        let mut counts: HashMap<(i64, i64), usize> = HashMap::with_capacity(cells.len());
+        for &(p, n) in cells {
+            let c = counts.entry(key(p)).or_default();
+            *c = (*c).max(n);
+        }
+        let reach = (NEAR / cell).round().max(1.0) as i64;
+        let mut local = HashMap::new();
+        for (&(i, j), _) in counts.iter() {
+            let mut densest = 0;
+            for dj in -reach..=reach {
+                for di in -reach..=reach {
+                    if let Some(&n) = counts.get(&(i + di, j + dj)) {
+                        densest = densest.max(n);
+                    }
+                }
+            }
+            let t = (densest / 8).max(FLOOR);
+            if t < global {
+                local.insert((i, j), t);
+            }
+        }
+        Thresholds {
+            global,
+            cell,
+            local,
+        }
+    }
+
+    /// A value given by the user: the same everywhere.
+    pub fn fixed(n: usize) -> Thresholds {
+        Thresholds {
+            global: n,
+            cell: 1.0,
+            local: HashMap::new(),
+        }
+    }
+
+    /// The count the cell centred at `p` needs.
+    pub fn at(&self, p: P2) -> usize {
+        let key = (
+            (p[0] / self.cell).round() as i64,
+            (p[1] / self.cell).round() as i64,
+        );
+        self.local.get(&key).copied().unwrap_or(self.global)
+    }
+
+    /// The lowest count any cell needs.
+    pub fn lowest(&self) -> usize {
+        self.local.values().copied().fold(self.global, usize::min)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Cells every 5 cm along x = `x` from y = `y0` for `len` metres, each with `n` points.
+    fn wall(x: f64, y0: f64, len: f64, n: usize) -> Vec<(P2, usize)> {
+        (0..(len / 0.05).round() as usize)
+            .map(|k| ([x, y0 + 0.05 * k as f64], n))
+            .collect()
+    }
+
+    #[test]
+    fn an_even_scan_gets_one_value() {
+        // 400 cells of 160 points: an eighth, 20, everywhere.
+        let t = Thresholds::derive(&wall(0.5, 0.0, 20.0, 160), 0.05);
+        assert_eq!(t.global, 20);
+        assert_eq!(t.at([0.5, 3.0]), 20);
+        assert_eq!(t.lowest(), 20);
+        // Very dense and very sparse scans stay within the range.
+        assert_eq!(
+            Thresholds::derive(&wall(0.5, 0.0, 20.0, 4000), 0.05).global,
+            50
+        );
+        assert_eq!(
+            Thresholds::derive(&wall(0.5, 0.0, 20.0, 30), 0.05).global,
+            10
+        );
+        assert_eq!(Thresholds::derive(&[], 0.05).global, 10);
+    }
+
+    #[test]
+    fn a_sparse_wall_is_judged_by_itself() {
+        // A dense corridor wall (30 m, 240 points a cell) and a room's sparse wall (10 m,
+        // 24 points a cell) 5 m away.
+        let mut cells = wall(0.5, 0.0, 30.0, 240);
+        cells.extend(wall(5.5, 0.0, 10.0, 24));
+        let t = Thresholds::derive(&cells, 0.05);
+        assert_eq!(t.global, 30);
+        assert_eq!(t.at([0.5, 15.0]), 30);
+        // 24 / 8 = 3, raised to the floor.
+        assert_eq!(t.at([5.5, 5.0]), FLOOR);
+        assert_eq!(t.lowest(), FLOOR);
+        // Where no wall-like cell is, the story's value holds.
+        assert_eq!(t.at([3.0, 5.0]), 30);
+    }
+
+    #[test]
+    fn a_halo_beside_a_dense_wall_is_held_to_the_wall() {
+        // 12-point cells 10 cm off a 240-point wall: the wall's eighth, 30, not the floor.
+        let mut cells = wall(0.5, 0.0, 30.0, 240);
+        cells.extend(wall(0.6, 0.0, 30.0, 12));
+        let t = Thresholds::derive(&cells, 0.05);
+        assert_eq!(t.at([0.6, 10.0]), 30);
+        // The same cells 1 m off are a wall of their own.
+        let mut cells = wall(0.5, 0.0, 30.0, 240);
+        cells.extend(wall(1.5, 0.0, 30.0, 12));
+        let t = Thresholds::derive(&cells, 0.05);
+        assert_eq!(t.at([1.5, 10.0]), FLOOR);
+        assert_eq!(Thresholds::fixed(7).at([1.5, 10.0]), 7);
+    }
+}
