@@ -175,10 +175,16 @@ pub fn rebuild_ring(
                     .filter(|&c| geom::dist(c, u) <= limit && geom::dist(c, v) <= limit && ok(c))
                     .min_by(|x, y| geom::dist(*x, mid).total_cmp(&geom::dist(*y, mid)))
             };
+            let lines = matches!(models[a], Model::Line(_)) && matches!(models[b], Model::Line(_));
             nearest(params.max_corner_distance, &|_| true).or_else(|| {
                 // An open corner: the runs must run on into it (no run turns back), and it
-                // must add or cut only empty floor.
+                // must add or cut only empty floor. Only two straight walls run on into one:
+                // an arc carried that far leaves its samples behind (a door swing's chord
+                // crossing a room).
                 let (pu, qv) = (run_direction(pos, p), run_direction(pos, q));
+                if !lines {
+                    return None;
+                }
                 nearest(params.max_open_corner, &|c| {
                     geom::dot(geom::sub(c, u), pu) > 0.0
                         && geom::dot(geom::sub(v, c), qv) > 0.0
