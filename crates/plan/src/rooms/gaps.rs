@@ -65,6 +65,23 @@ impl Gap {
     }
 }
 
+/// Whether free floor lies just beyond both faces of the pierced wall all along the gap: a
+/// door joins two rooms from jamb to jamb. A ray that slipped through a crack in a wall
+/// across (at a T junction) and on over a corridor has solid wall beside its first stretch.
+fn rooms_beside(gap: &Gap, free: &Free) -> bool {
+    const STEP: f64 = 0.05;
+    let steps = (gap.width / STEP).floor() as usize;
+    (1..steps).all(|k| {
+        let at = geom::add(gap.a, geom::scale(gap.u, k as f64 * STEP));
+        let probe = Gap {
+            a: at,
+            b: at,
+            ..gap.clone()
+        };
+        probe.probes().iter().all(|&q| free.contains(q))
+    })
+}
+
 /// Every gap at the ends of the paired walls, once each.
 pub(crate) fn find(
     pieces: &[Piece],
@@ -126,7 +143,7 @@ pub(crate) fn find(
                 .iter()
                 .all(|&s| free.contains(geom::add(origin, geom::scale(dir, width * s))));
             let [l, r] = gap.probes();
-            if !along || !free.contains(l) || !free.contains(r) {
+            if !along || !free.contains(l) || !free.contains(r) || !rooms_beside(&gap, free) {
                 continue;
             }
             let twin = out.iter().any(|g| {
