@@ -176,6 +176,33 @@ fn a_corridor_with_three_offices() {
     assert_eq!(partitions, 2);
 }
 
+/// Offices on both sides of a corridor, their partitions in line. Where one partition meets
+/// the corridor wall the plan has a crack 8 cm into that wall: the partition's centre line
+/// runs on through it and across the corridor to the partition opposite, 2.08 m, but no room
+/// lies beside that stretch, so it is no opening and the corridor stays one room.
+#[test]
+fn a_crack_at_a_t_junction_does_not_split_the_corridor() {
+    let mut open = vec![
+        Rect::new(0.0, 0.0, 8.1, 2.0),
+        // The crack.
+        Rect::new(4.0, 2.0, 4.1, 2.08),
+    ];
+    let mut doors = Vec::new();
+    for x in [0.0, 4.1] {
+        open.push(Rect::new(x, 2.1, x + 4.0, 6.0));
+        open.push(Rect::new(x, -4.0, x + 4.0, -0.1));
+        doors.push(Rect::new(x + 1.0, 2.0, x + 1.9, 2.1));
+        doors.push(Rect::new(x + 1.0, -0.1, x + 1.9, 0.0));
+    }
+    let (plan, points) = story(&open, &doors, &[], true);
+    let out = run(&plan, &points, &[]);
+    let a = areas(&out);
+    assert_eq!(a.len(), 5, "{a:?}");
+    assert!((a[4] - 16.2).abs() < 0.01, "{a:?}");
+    assert_eq!(out.spaces.doors.len(), 4);
+    assert!(out.spaces.doors.iter().all(|d| d.kind == DoorKind::Door));
+}
+
 #[test]
 fn a_column_near_a_wall_divides_nothing() {
     // A 40 cm column 1 m from the south wall: its faces pair like a wall's, and the gap to the
