@@ -30,6 +30,8 @@ pub(crate) struct Gap {
     /// How far the cut reaches past each jamb along the wall until both faces are solid, so a
     /// slanted jamb still closes.
     pub reach: [f64; 2],
+    /// The jambs as the points show them, distances from `a` along `u` (see [`lintels`]).
+    pub jambs: Option<[f64; 2]>,
 }
 
 impl Gap {
@@ -53,6 +55,19 @@ impl Gap {
             geom::add(a, geom::scale(n, h)),
         ]
     }
+    /// The jambs and the width the door is reported with: where the points put the jambs when
+    /// they were seen, else the plan's faces.
+    pub fn door_span(&self) -> (P2, P2, f64) {
+        match self.jambs {
+            Some([s, e]) => (
+                geom::add(self.a, geom::scale(self.u, s)),
+                geom::add(self.a, geom::scale(self.u, e)),
+                e - s,
+            ),
+            None => (self.a, self.b, self.width),
+        }
+    }
+
     /// Points just beyond either face at the gap's middle: in the two rooms it joins.
     pub fn probes(&self) -> [P2; 2] {
         let off = self.depth / 2.0 + 0.05;
@@ -123,6 +138,7 @@ pub(crate) fn find(
                 head_z: None,
                 crack: width < params.min_door_width,
                 reach: [0.05, 0.05],
+                jambs: None,
             };
             // A crack is free floor between the wall's end and the face; solid there is a
             // wall meeting another, nothing to close.
@@ -236,13 +252,24 @@ pub(crate) fn lintels(
         .collect();
     let mut hit: Vec<Vec<bool>> = slices.iter().map(|&n| vec![false; n]).collect();
     let mut heights: Vec<Vec<f64>> = vec![Vec::new(); gaps.len()];
-    let boxes: Vec<[f64; 4]> = gaps.iter().map(|g| ring_box(&g.rect())).collect();
+    // The wall's points under the door height nearest the gap on either side.
+    let mut near_jamb: Vec<[Nearest; 2]> = vec![[Nearest::default(); 2]; gaps.len()];
+    let low = (story.floor_z + JAMB_ABOVE_FLOOR, z0);
+    let boxes: Vec<[f64; 4]> = gaps
+        .iter()
+        .map(|g| {
+            let mut wide = g.clone();
+            wide.reach = [JAMB_SEARCH; 2];
+            ring_box(&wide.rect())
+        })
+        .collect();
     let index = BoxIndex::new(&boxes);
     // A very dense cloud is read in a stride: lintels stay well covered.
     let stride = (points.xyz.len() / 8_000_000).max(1);
     for q in points.xyz.iter().step_by(stride) {
         let z = q[2] as f64;
-        if !(z0..z1).contains(&z) {
+        let over = (z0..z1).contains(&z);
+        if !over && !(low.0..low.1).contains(&z) {
             continue;
         }
         let p = [q[0] as f64, q[1] as f64];
@@ -250,6 +277,17 @@ pub(crate) fn lintels(
             let g = &gaps[k];
             let d = geom::sub(p, g.a);
             let (t, s) = (geom::dot(d, g.u), geom::dot(d, g.left()));
+            if !over {
+                if s.abs() <= g.depth / 2.0 + 0.02 && t > -JAMB_SEARCH && t < g.width + JAMB_SEARCH
+                {
+                    if t < g.width / 2.0 {
+                        near_jamb[k][0].offer(t);
+                    } else {
+                        near_jamb[k][1].offer(-t);
+                    }
+                }
+                continue;
+            }
             // The jambs' own faces are left out; the lintel's faces lie on the wall's.
             if t < 0.03 || t > g.width - 0.03 || s.abs() > g.depth / 2.0 + 0.03 {
                 continue;
@@ -260,6 +298,13 @@ pub(crate) fn lintels(
         }
     }
     for (k, g) in gaps.iter_mut().enumerate() {
+        if let [Some(s), Some(e)] = near_jamb[k].map(|n| n.value()) {
+            let e = -e;
+            // Trust the points only near the plan's faces: farther, they are something else.
+            if s.abs() <= JAMB_SEARCH && (e - g.width).abs() <= JAMB_SEARCH && e > s {
+                g.jambs = Some([s, e]);
+            }
+        }
         let filled = hit[k].iter().filter(|h| **h).count() as f64 / slices[k] as f64;
         g.lintel = filled >= params.lintel_coverage;
         if g.lintel {
@@ -268,6 +313,48 @@ pub(crate) fn lintels(
             // The underside: a low percentile, above stray points.
             g.head_z = Some(h[h.len() / 20]);
         }
+    }
+}
+
+/// Wall points this far above the floor and under the door height show the jambs: the floor's
+/// own points lie lower.
+const JAMB_ABOVE_FLOOR: f64 = 0.3;
+/// How far from the plan's jamb the points' jamb is looked for, metres: the plan's faces stand
+/// a cell or so off.
+const JAMB_SEARCH: f64 = 0.15;
+/// The jamb is the third point nearest the gap, so one or two stray points in the doorway do
+/// not move it.
+const JAMB_RANK: usize = 3;
+
+/// The [`JAMB_RANK`] largest values offered.
+#[derive(Debug, Clone, Copy, Default)]
+struct Nearest {
+    top: [f64; JAMB_RANK],
+    n: usize,
+}
+
+impl Nearest {
+    fn offer(&mut self, v: f64) {
+        if self.n < JAMB_RANK {
+            self.top[self.n] = v;
+            self.n += 1;
+        } else {
+            let (i, min) = self
+                .top
+                .iter()
+                .enumerate()
+                .min_by(|a, b| a.1.total_cmp(b.1))
+                .map(|(i, &m)| (i, m))
+                .unwrap_or((0, f64::INFINITY));
+            if v > min {
+                self.top[i] = v;
+            }
+        }
+    }
+
+    /// The smallest of the largest values: the [`JAMB_RANK`]-th largest, once that many came.
+    fn value(&self) -> Option<f64> {
+        (self.n == JAMB_RANK).then(|| self.top.iter().copied().fold(f64::INFINITY, f64::min))
     }
 }
 

@@ -251,12 +251,13 @@ pub(crate) fn spaces(
                 }
             }
         }
+        let (a, b, width) = g.door_span();
         doors.push(Door {
             id: format!("L{level}-D{}", n + 1),
             kind,
-            a: g.a,
-            b: g.b,
-            width: g.width,
+            a,
+            b,
+            width,
             head_z: match kind {
                 DoorKind::Door => g.head_z,
                 DoorKind::Opening => None,
