@@ -32,6 +32,9 @@ pub(crate) struct Gap {
     pub reach: [f64; 2],
     /// The jambs as the points show them, distances from `a` along `u` (see [`lintels`]).
     pub jambs: Option<[f64; 2]>,
+    /// Both jambs are ends of one straight wall of one thickness: a doorway in that wall, a
+    /// door even where the floor goes around the wall's far end.
+    pub in_wall: bool,
 }
 
 impl Gap {
@@ -97,6 +100,19 @@ fn rooms_beside(gap: &Gap, free: &Free) -> bool {
     })
 }
 
+/// Whether wall `q` continues wall `p` past a gap ending at `end`: parallel, on the same centre
+/// line, as thick, with an end at `end`.
+fn continues(p: &Piece, q: &Piece, end: P2) -> bool {
+    const ALONG: f64 = 0.1;
+    const ACROSS: f64 = 0.03;
+    let off_line = |x: P2| geom::dot(geom::sub(x, p.a), p.left()).abs();
+    geom::cross(p.u, q.u).abs() < 0.05
+        && (p.thickness - q.thickness).abs() <= ACROSS
+        && off_line(q.a) <= ACROSS
+        && off_line(q.b) <= ACROSS
+        && (geom::dist(q.a, end) <= ALONG || geom::dist(q.b, end) <= ALONG)
+}
+
 /// Every gap at the ends of the paired walls, once each.
 pub(crate) fn find(
     pieces: &[Piece],
@@ -139,6 +155,7 @@ pub(crate) fn find(
                 crack: width < params.min_door_width,
                 reach: [0.05, 0.05],
                 jambs: None,
+                in_wall: false,
             };
             // A crack is free floor between the wall's end and the face; solid there is a
             // wall meeting another, nothing to close.
@@ -162,6 +179,7 @@ pub(crate) fn find(
             if !along || !free.contains(l) || !free.contains(r) || !rooms_beside(&gap, free) {
                 continue;
             }
+            gap.in_wall = pieces.iter().any(|q| continues(p, q, end));
             let twin = out.iter().any(|g| {
                 !g.crack
                     && geom::dist(g.center(), gap.center()) < 0.1

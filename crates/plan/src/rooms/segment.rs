@@ -76,7 +76,8 @@ pub(crate) struct Divided {
 
 /// Cuts the floor at the gaps that divide it: every gap with a lintel that ends up between two
 /// different rooms, and every opening that alone splits its room into two of at least
-/// `min_opening_room_area`.
+/// `min_opening_room_area`. A doorway in a wall that divides nothing is a door all the same,
+/// uncut.
 pub(crate) fn divide(
     polygons: &[Polygon],
     gaps: &[Gap],
@@ -141,6 +142,8 @@ pub(crate) fn divide(
         .zip(&doors)
         .zip(gaps)
         .map(|((&k, &door), g)| match (k, door) {
+            // A doorway in a wall the floor goes around: a door, though it divides nothing.
+            (false, _) if g.lintel && g.in_wall && !g.crack => Some(DoorKind::Door),
             (false, _) => None,
             _ if g.crack => None,
             (true, true) => Some(DoorKind::Door),

@@ -220,6 +220,28 @@ fn a_column_near_a_wall_divides_nothing() {
     assert!(out.spaces.doors.is_empty(), "{:?}", out.spaces.doors);
 }
 
+/// A wall from the north wall 4 m into a room, with a doorway under a lintel: the floor goes
+/// around the wall's end, so the doorway divides nothing, but it is a door in that wall.
+#[test]
+fn a_doorway_in_a_wall_the_floor_goes_around_is_a_door() {
+    let (plan, points) = story(
+        &[Rect::new(0.0, 0.0, 6.0, 6.0)],
+        &[Rect::new(2.95, 4.0, 3.05, 4.9)],
+        &[
+            Rect::new(2.95, 4.9, 3.05, 6.0),
+            Rect::new(2.95, 2.0, 3.05, 4.0),
+        ],
+        true,
+    );
+    let out = run(&plan, &points, &[]);
+    assert_eq!(out.spaces.rooms.len(), 1);
+    let d = &out.spaces.doors;
+    assert_eq!(d.len(), 1, "{d:?}");
+    assert_eq!(d[0].kind, DoorKind::Door);
+    assert!((d[0].width - 0.9).abs() < 1e-6, "{d:?}");
+    assert_eq!(d[0].rooms[0], d[0].rooms[1]);
+}
+
 #[test]
 fn a_room_with_two_doors_to_the_same_corridor() {
     let (plan, points) = story(
