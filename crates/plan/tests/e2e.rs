@@ -281,6 +281,31 @@ fn mobile_scan_of_the_lobby() {
     assert!(e.worst_arc_error() < 0.01, "{}", e.summary());
 }
 
+/// A mobile scanner walks the office's corridors and steps into each room: the rooms' far
+/// walls hold a tenth of the corridor walls' points. One story-wide point count dropped them
+/// and closed the rooms with chords (IoU 0.54); each cell is now held to the walls around it.
+#[test]
+fn sparse_mobile_scan_of_the_office() {
+    let sim = scan(
+        BuildingKind::Office3Story,
+        ScanOptions {
+            points: 1_500_000,
+            seed: 23,
+            mobile: true,
+            ..Default::default()
+        },
+    );
+    assert!(matches!(sim.cloud.viewpoints, Viewpoints::Trajectory(_)));
+    let (plan, e) = plan_and_score(&sim.cloud, &sim, &Params::default());
+    let s = e.summary();
+    assert!(e.all_watertight(), "every story found\n{s}");
+    assert_eq!(e.extra_stories, 0, "{s}");
+    assert!(e.min_iou() >= 0.975, "IoU\n{s}");
+    assert!(e.max_boundary_p95() <= 0.08, "p95\n{s}");
+    let problems = asbuilt_plan::validity::plan_problems(&plan);
+    assert!(problems.is_empty(), "{problems:?}");
+}
+
 #[test]
 fn simulation_ground_truth_scores_itself_perfectly() {
     // The evaluation's own sanity: each building's truth, as a plan, matches the truth exactly
@@ -524,8 +549,9 @@ fn thin_partitions_and_closets() {
     for (_, e) in class_runs(BuildingKind::Partitions, 400_000, 36) {
         // Every room and all three 1.2 × 1.5 m closets are there, and the 25-95 cm walls
         // between a door and a corner (completeness was 0.93: growing gave their room faces
-        // to the corridor face's model, and the partition ran on to the corridor).
-        assert_class(&e, "partitions", 0.99, 0.02, 0.95);
+        // to the corridor face's model, and the partition ran on to the corridor; then 0.954
+        // until sparse wall cells were held to the density of the walls around them).
+        assert_class(&e, "partitions", 0.99, 0.02, 0.99);
         assert!(e.max_height_error() <= 0.02, "{}", e.summary());
     }
 }
