@@ -141,8 +141,8 @@ fn main() {
             }
             for d in &s.spaces.doors {
                 eprintln!(
-                    "{} {:?} width {:.3} depth {:.3} head {:?} rooms {:?}",
-                    d.id, d.kind, d.width, d.depth, d.head_z, d.rooms
+                    "{} {:?} width {:.3} depth {:.3} head {:?} rooms {:?} at [{:.2}, {:.2}] -> [{:.2}, {:.2}]",
+                    d.id, d.kind, d.width, d.depth, d.head_z, d.rooms, d.a[0], d.a[1], d.b[0], d.b[1]
                 );
             }
             for w in s.spaces.walls.iter().filter(|w| !w.exterior) {

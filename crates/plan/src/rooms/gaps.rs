@@ -141,6 +141,19 @@ pub(crate) fn find(
             if leave > p.thickness / 2.0 && !(own_end && leave <= p.thickness) {
                 continue;
             }
+            // Solid on both sides of the ray's way out, leaving through no face of this wall's
+            // end: it went through a wall across, thinner than half this one (a partition
+            // fattened by voxels meeting a corridor wall), and the floor beyond is a room.
+            if !own_end && leave > 0.01 {
+                let mid = geom::add(p_end, geom::scale(dir, leave / 2.0));
+                let n = p.left();
+                let off = p.thickness / 2.0 + 0.03;
+                let beside =
+                    [1.0, -1.0].map(|k| free.contains(geom::add(mid, geom::scale(n, k * off))));
+                if beside == [false, false] {
+                    continue;
+                }
+            }
             let origin = geom::add(p_end, geom::scale(dir, leave));
             let width = enter - leave;
             let end = geom::add(p_end, geom::scale(dir, enter));
@@ -190,7 +203,21 @@ pub(crate) fn find(
             }
         }
     }
+    // Cracks are closed first: a door's free path through one (a ray from a partition's end
+    // through a crack at a T junction and over the corridor) is no door.
+    let cracks: Vec<Vec<P2>> = out.iter().filter(|g| g.crack).map(|g| g.rect()).collect();
+    out.retain(|g| g.crack || !cracks.iter().any(|r| crosses(g, r)));
     out
+}
+
+/// Whether gap `g`'s centre line passes through the ring `r` (a closed crack) between its jambs.
+fn crosses(g: &Gap, r: &[P2]) -> bool {
+    const STEP: f64 = 0.01;
+    let steps = (g.width / STEP).ceil() as usize;
+    (1..steps).any(|k| {
+        let at = geom::add(g.a, geom::scale(g.u, k as f64 * STEP));
+        geom::point_in_ring(at, r)
+    })
 }
 
 /// How far past a jamb (`side` -1 at `a`, 1 at `b`) the cut must reach for both faces to be
