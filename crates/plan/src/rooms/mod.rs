@@ -209,7 +209,7 @@ pub fn find_rooms(
         gaps::lintels(&mut candidates, story, points, params);
     } else if !candidates.is_empty() {
         out.notes
-            .push("rooms: no points held to look for lintels; every gap is taken as a door".into());
+            .push("rooms: no points held to look for lintels; every gap is taken as a door, its jambs the plan's faces".into());
         for c in &mut candidates {
             c.lintel = true;
         }

@@ -366,10 +366,10 @@ pub(crate) fn finish_samples(
         Some(n) => Thresholds::fixed(n),
         None => {
             // Shallow cells are not yet walls: they say nothing of how dense walls are.
-            let cells: Vec<(P2, usize)> = found
+            let cells: Vec<(threshold::Cell, usize)> = found
                 .iter()
                 .filter(|f| !f.shallow)
-                .map(|f| (f.at, f.count))
+                .map(|f| (f.cell, f.count))
                 .collect();
             Thresholds::derive(&cells, params.cell_size)
         }
@@ -377,7 +377,7 @@ pub(crate) fn finish_samples(
     let min_points_used = thresholds.global;
     let walls: Vec<&Found> = found
         .iter()
-        .filter(|f| f.count >= thresholds.at(f.at) && (f.low || f.count >= min_points_used))
+        .filter(|f| f.count >= thresholds.at(f.cell) && (f.low || f.count >= min_points_used))
         .filter(|f| f.sample.is_some())
         .collect();
     let cells_tested = walls.len();
@@ -507,8 +507,8 @@ fn describe_rejections(tally: &[usize; 6], min_points: usize, found: &[Found]) -
 /// A wall-like cell: its neighbourhood count and, when it passed every test, its sample and
 /// the distance to its nearest scanner.
 struct Found {
-    /// The cell's centre.
-    at: P2,
+    /// The cell's column and row in the story's grid (tiles share it).
+    cell: threshold::Cell,
     count: usize,
     sample: Option<WallSample>,
     nearest: Option<f64>,
@@ -607,7 +607,7 @@ impl Scan<'_> {
         }
         self.gather(i, j, s);
         let lo = g.frame.corner(i, j);
-        let at = [lo[0] + g.frame.cell / 2.0, lo[1] + g.frame.cell / 2.0];
+        let cell = (i as i64, j as i64);
         let count = s.pts.len();
         let wall = match self.tests.run_binned(
             &s.pts,
@@ -621,7 +621,7 @@ impl Scan<'_> {
             Err(r) if r.wall_like() => {
                 let zmin = s.pts.iter().fold(f32::INFINITY, |m, p| m.min(p[2]));
                 return Ok(Some(Found {
-                    at,
+                    cell,
                     count,
                     sample: None,
                     nearest: None,
@@ -636,7 +636,7 @@ impl Scan<'_> {
             .views
             .observe(&s.slots, &s.times, count, wall.pos, wall.normal);
         Ok(Some(Found {
-            at,
+            cell,
             count,
             sample: Some(WallSample {
                 pos: wall.pos,

@@ -15,7 +15,8 @@
 
 use std::collections::HashMap;
 
-use crate::geom::P2;
+/// A cell of the story's grid, by its column and row.
+pub(super) type Cell = (i64, i64);
 
 /// The story-wide value stays within these bounds: 50 is the paper's value for dense scans.
 pub(super) const RANGE: (usize, usize) = (10, 50);
@@ -31,26 +32,23 @@ const NEAR: f64 = 0.25;
 pub(super) struct Thresholds {
     /// The story-wide value.
     pub global: usize,
-    /// Cell width, metres.
-    cell: f64,
-    /// Per cell (its centre over the width, rounded), the value where it is below the
+    /// Per cell, the value where it is below the
     /// story-wide one.
-    local: HashMap<(i64, i64), usize>,
+    local: HashMap<Cell, usize>,
 }
 
 impl Thresholds {
-    /// Derives the thresholds from the wall-like cells, each one's centre and neighbourhood
+    /// Derives the thresholds from the wall-like cells, each one's indices and neighbourhood
     /// count, on a grid of `cell` metres.
-    pub fn derive(cells: &[(P2, usize)], cell: f64) -> Thresholds {
+    pub fn derive(cells: &[(Cell, usize)], cell: f64) -> Thresholds {
         let mut all: Vec<usize> = cells.iter().map(|c| c.1).collect();
         let global = match all.len() {
             0 => RANGE.0,
             n => (*all.select_nth_unstable(n / 2).1 / 8).clamp(RANGE.0, RANGE.1),
         };
-        let key = |p: P2| ((p[0] / cell).round() as i64, (p[1] / cell).round() as i64);
-        let mut counts: HashMap<(i64, i64), usize> = HashMap::with_capacity(cells.len());
-        for &(p, n) in cells {
-            let c = counts.entry(key(p)).or_default();
+        let mut counts: HashMap<Cell, usize> = HashMap::with_capacity(cells.len());
+        for &(c, n) in cells {
+            let c = counts.entry(c).or_default();
             *c = (*c).max(n);
         }
         let reach = (NEAR / cell).round().max(1.0) as i64;
@@ -69,29 +67,20 @@ impl Thresholds {
                 local.insert((i, j), t);
             }
         }
-        Thresholds {
-            global,
-            cell,
-            local,
-        }
+        Thresholds { global, local }
     }
 
     /// A value given by the user: the same everywhere.
     pub fn fixed(n: usize) -> Thresholds {
         Thresholds {
             global: n,
-            cell: 1.0,
             local: HashMap::new(),
         }
     }
 
-    /// The count the cell centred at `p` needs.
-    pub fn at(&self, p: P2) -> usize {
-        let key = (
-            (p[0] / self.cell).round() as i64,
-            (p[1] / self.cell).round() as i64,
-        );
-        self.local.get(&key).copied().unwrap_or(self.global)
+    /// The count cell `c` needs.
+    pub fn at(&self, c: Cell) -> usize {
+        self.local.get(&c).copied().unwrap_or(self.global)
     }
 
     /// The lowest count any cell needs.
@@ -104,10 +93,15 @@ impl Thresholds {
 mod tests {
     use super::*;
 
+    /// The 5 cm cell at `x`, `y`.
+    fn at(x: f64, y: f64) -> Cell {
+        ((x / 0.05).round() as i64, (y / 0.05).round() as i64)
+    }
+
     /// Cells every 5 cm along x = `x` from y = `y0` for `len` metres, each with `n` points.
-    fn wall(x: f64, y0: f64, len: f64, n: usize) -> Vec<(P2, usize)> {
+    fn wall(x: f64, y0: f64, len: f64, n: usize) -> Vec<(Cell, usize)> {
         (0..(len / 0.05).round() as usize)
-            .map(|k| ([x, y0 + 0.05 * k as f64], n))
+            .map(|k| (at(x, y0 + 0.05 * k as f64), n))
             .collect()
     }
 
@@ -116,7 +110,7 @@ mod tests {
         // 400 cells of 160 points: an eighth, 20, everywhere.
         let t = Thresholds::derive(&wall(0.5, 0.0, 20.0, 160), 0.05);
         assert_eq!(t.global, 20);
-        assert_eq!(t.at([0.5, 3.0]), 20);
+        assert_eq!(t.at(at(0.5, 3.0)), 20);
         assert_eq!(t.lowest(), 20);
         // Very dense and very sparse scans stay within the range.
         assert_eq!(
@@ -138,12 +132,12 @@ mod tests {
         cells.extend(wall(5.5, 0.0, 10.0, 24));
         let t = Thresholds::derive(&cells, 0.05);
         assert_eq!(t.global, 30);
-        assert_eq!(t.at([0.5, 15.0]), 30);
+        assert_eq!(t.at(at(0.5, 15.0)), 30);
         // 24 / 8 = 3, raised to the floor.
-        assert_eq!(t.at([5.5, 5.0]), FLOOR);
+        assert_eq!(t.at(at(5.5, 5.0)), FLOOR);
         assert_eq!(t.lowest(), FLOOR);
         // Where no wall-like cell is, the story's value holds.
-        assert_eq!(t.at([3.0, 5.0]), 30);
+        assert_eq!(t.at(at(3.0, 5.0)), 30);
     }
 
     #[test]
@@ -152,12 +146,12 @@ mod tests {
         let mut cells = wall(0.5, 0.0, 30.0, 240);
         cells.extend(wall(0.6, 0.0, 30.0, 12));
         let t = Thresholds::derive(&cells, 0.05);
-        assert_eq!(t.at([0.6, 10.0]), 30);
+        assert_eq!(t.at(at(0.6, 10.0)), 30);
         // The same cells 1 m off are a wall of their own.
         let mut cells = wall(0.5, 0.0, 30.0, 240);
         cells.extend(wall(1.5, 0.0, 30.0, 12));
         let t = Thresholds::derive(&cells, 0.05);
-        assert_eq!(t.at([1.5, 10.0]), FLOOR);
-        assert_eq!(Thresholds::fixed(7).at([1.5, 10.0]), 7);
+        assert_eq!(t.at(at(1.5, 10.0)), FLOOR);
+        assert_eq!(Thresholds::fixed(7).at(at(1.5, 10.0)), 7);
     }
 }
