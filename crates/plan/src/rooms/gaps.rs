@@ -3,6 +3,8 @@
 //! a gap tell a door (a lintel: something between the door height and the ceiling) from an
 //! opening.
 
+use rayon::prelude::*;
+
 use super::faces::Face;
 use super::pairing::Piece;
 use super::segment::Free;
@@ -295,10 +297,6 @@ pub(crate) fn lintels(
         .iter()
         .map(|g| ((g.width / 0.1).ceil() as usize).max(1))
         .collect();
-    let mut hit: Vec<Vec<bool>> = slices.iter().map(|&n| vec![false; n]).collect();
-    let mut heights: Vec<Vec<f64>> = vec![Vec::new(); gaps.len()];
-    // The wall's points under the door height nearest the gap on either side.
-    let mut near_jamb: Vec<[Nearest; 2]> = vec![[Nearest::default(); 2]; gaps.len()];
     let low = (story.floor_z + JAMB_ABOVE_FLOOR, z0);
     let boxes: Vec<[f64; 4]> = gaps
         .iter()
@@ -309,39 +307,58 @@ pub(crate) fn lintels(
         })
         .collect();
     let index = BoxIndex::new(&boxes);
-    // A very dense cloud is read in a stride: lintels stay well covered.
+    let empty = || Seen {
+        hit: slices.iter().map(|&n| vec![false; n]).collect(),
+        heights: vec![Vec::new(); gaps.len()],
+        near_jamb: vec![[Nearest::default(); 2]; gaps.len()],
+    };
+    // A very dense cloud is read in a stride: lintels stay well covered. Both cores read a
+    // share each; what they saw merges the same in any order.
     let stride = (points.xyz.len() / 8_000_000).max(1);
-    for q in points.xyz.iter().step_by(stride) {
-        let z = q[2] as f64;
-        let over = (z0..z1).contains(&z);
-        if !over && !(low.0..low.1).contains(&z) {
-            continue;
-        }
-        let p = [q[0] as f64, q[1] as f64];
-        for &k in index.near(p) {
-            let g = &gaps[k];
-            let d = geom::sub(p, g.a);
-            let (t, s) = (geom::dot(d, g.u), geom::dot(d, g.left()));
-            if !over {
-                if s.abs() <= g.depth / 2.0 + 0.02 && t > -JAMB_SEARCH && t < g.width + JAMB_SEARCH
-                {
-                    if t < g.width / 2.0 {
-                        near_jamb[k][0].offer(t);
-                    } else {
-                        near_jamb[k][1].offer(-t);
+    let Seen {
+        hit,
+        mut heights,
+        near_jamb,
+    } = points
+        .xyz
+        .par_iter()
+        .step_by(stride)
+        .with_min_len(1 << 16)
+        .fold(empty, |mut seen, q| {
+            let z = q[2] as f64;
+            let over = (z0..z1).contains(&z);
+            if !over && !(low.0..low.1).contains(&z) {
+                return seen;
+            }
+            let p = [q[0] as f64, q[1] as f64];
+            for &k in index.near(p) {
+                let g = &gaps[k];
+                let d = geom::sub(p, g.a);
+                let (t, s) = (geom::dot(d, g.u), geom::dot(d, g.left()));
+                if !over {
+                    if s.abs() <= g.depth / 2.0 + 0.02
+                        && t > -JAMB_SEARCH
+                        && t < g.width + JAMB_SEARCH
+                    {
+                        if t < g.width / 2.0 {
+                            seen.near_jamb[k][0].offer(t);
+                        } else {
+                            seen.near_jamb[k][1].offer(-t);
+                        }
                     }
+                    continue;
                 }
-                continue;
+                // The jambs' own faces are left out; the lintel's faces lie on the wall's.
+                if t < 0.03 || t > g.width - 0.03 || s.abs() > g.depth / 2.0 + 0.03 {
+                    continue;
+                }
+                let slice = ((t / g.width * slices[k] as f64) as usize).min(slices[k] - 1);
+                seen.hit[k][slice] = true;
+                seen.heights[k].push(z);
             }
-            // The jambs' own faces are left out; the lintel's faces lie on the wall's.
-            if t < 0.03 || t > g.width - 0.03 || s.abs() > g.depth / 2.0 + 0.03 {
-                continue;
-            }
-            let slice = ((t / g.width * slices[k] as f64) as usize).min(slices[k] - 1);
-            hit[k][slice] = true;
-            heights[k].push(z);
-        }
-    }
+            seen
+        })
+        .reduce(empty, Seen::merge);
     for (k, g) in gaps.iter_mut().enumerate() {
         if let [Some(s), Some(e)] = near_jamb[k].map(|n| n.value()) {
             let e = -e;
@@ -370,6 +387,33 @@ const JAMB_SEARCH: f64 = 0.15;
 /// The jamb is the third point nearest the gap, so one or two stray points in the doorway do
 /// not move it.
 const JAMB_RANK: usize = 3;
+
+/// What the points over and beside the gaps showed, per gap.
+struct Seen {
+    /// Per 10 cm slice along the gap: a point over it.
+    hit: Vec<Vec<bool>>,
+    /// The heights of the points over it.
+    heights: Vec<Vec<f64>>,
+    /// The wall's points under the door height nearest the gap on either side.
+    near_jamb: Vec<[Nearest; 2]>,
+}
+
+impl Seen {
+    fn merge(mut self, other: Seen) -> Seen {
+        for (a, b) in self.hit.iter_mut().zip(other.hit) {
+            a.iter_mut().zip(b).for_each(|(x, y)| *x |= y);
+        }
+        for (a, b) in self.heights.iter_mut().zip(other.heights) {
+            a.extend(b);
+        }
+        for (a, b) in self.near_jamb.iter_mut().zip(other.near_jamb) {
+            for (x, y) in a.iter_mut().zip(b) {
+                y.top[..y.n].iter().for_each(|&v| x.offer(v));
+            }
+        }
+        self
+    }
+}
 
 /// The [`JAMB_RANK`] largest values offered.
 #[derive(Debug, Clone, Copy, Default)]

@@ -9,6 +9,8 @@
 //! the last point below and above it (`refine`). Windows at least `min_window_width` wide are
 //! kept.
 
+use rayon::prelude::*;
+
 use super::faces::Face;
 use super::gaps::{ring_box, BoxIndex};
 use super::pairing::Coverage;
@@ -38,33 +40,47 @@ pub(crate) fn find(
         return Vec::new();
     }
     let rows = (height / BIN).ceil() as usize;
-    let mut grids: Vec<Vec<u32>> = outer.iter().map(|(_, f)| vec![0; cols(f) * rows]).collect();
+    let empty =
+        || -> Vec<Vec<u32>> { outer.iter().map(|(_, f)| vec![0; cols(f) * rows]).collect() };
     let boxes: Vec<[f64; 4]> = outer
         .iter()
         .map(|(_, f)| band_box(f.a, f.b, f.solid_normal()))
         .collect();
     let index = BoxIndex::new(&boxes);
-    // A very dense cloud is read in a stride: 10 cm bins stay well filled.
+    // A very dense cloud is read in a stride: 10 cm bins stay well filled. Both cores count a
+    // share each, summed after.
     let stride = (points.xyz.len() / 4_000_000).max(1);
-    for q in points.xyz.iter().step_by(stride) {
-        let z = q[2] as f64 - story.floor_z;
-        if !(0.0..height).contains(&z) {
-            continue;
-        }
-        let p = [q[0] as f64, q[1] as f64];
-        for &k in index.near(p) {
-            let f = outer[k].1;
-            let t = f.param(p);
-            let s = geom::dot(geom::sub(p, f.a), f.solid_normal());
-            // On the face, or just in front of it; not the reveal behind.
-            if t < 0.0 || t >= f.len || !(-BAND..=BAND).contains(&s) {
-                continue;
+    let grids = points
+        .xyz
+        .par_iter()
+        .step_by(stride)
+        .with_min_len(1 << 16)
+        .fold(empty, |mut grids, q| {
+            let z = q[2] as f64 - story.floor_z;
+            if !(0.0..height).contains(&z) {
+                return grids;
             }
-            let c = (t / BIN) as usize;
-            let r = ((z / BIN) as usize).min(rows - 1);
-            grids[k][c * rows + r] += 1;
-        }
-    }
+            let p = [q[0] as f64, q[1] as f64];
+            for &k in index.near(p) {
+                let f = outer[k].1;
+                let t = f.param(p);
+                let s = geom::dot(geom::sub(p, f.a), f.solid_normal());
+                // On the face, or just in front of it; not the reveal behind.
+                if t < 0.0 || t >= f.len || !(-BAND..=BAND).contains(&s) {
+                    continue;
+                }
+                let c = (t / BIN) as usize;
+                let r = ((z / BIN) as usize).min(rows - 1);
+                grids[k][c * rows + r] += 1;
+            }
+            grids
+        })
+        .reduce(empty, |mut a, b| {
+            for (x, y) in a.iter_mut().zip(b) {
+                x.iter_mut().zip(y).for_each(|(u, v)| *u += v);
+            }
+            a
+        });
     let mut pieces: Vec<Piece> = Vec::new();
     for (k, &(i, f)) in outer.iter().enumerate() {
         let columns: Vec<Option<(f64, f64)>> = (0..cols(f))
@@ -240,7 +256,7 @@ fn refine(windows: &mut [Piece], story: &StoryPlan, points: &StoryPoints<'_>, st
             (u, len)
         })
         .collect();
-    let mut edges: Vec<[Option<f64>; 4]> = vec![[None; 4]; windows.len()];
+    let empty = || vec![[None; 4]; windows.len()];
     let boxes: Vec<[f64; 4]> = windows
         .iter()
         .zip(&frames)
@@ -251,36 +267,54 @@ fn refine(windows: &mut [Piece], story: &StoryPlan, points: &StoryPoints<'_>, st
         })
         .collect();
     let index = BoxIndex::new(&boxes);
-    for q in points.xyz.iter().step_by(stride) {
-        let z = q[2] as f64 - story.floor_z;
-        let p = [q[0] as f64, q[1] as f64];
-        for &k in index.near(p) {
-            let w = &windows[k];
-            let (u, len) = frames[k];
-            let d = geom::sub(p, w.a);
-            if !(-BAND..=BAND).contains(&geom::dot(d, w.normal)) {
-                continue;
+    // The nearest point to each edge: the same whichever core found it.
+    const PICK: [fn(f64, f64) -> f64; 4] = [f64::max, f64::min, f64::max, f64::min];
+    let edges: Vec<[Option<f64>; 4]> = points
+        .xyz
+        .par_iter()
+        .step_by(stride)
+        .with_min_len(1 << 16)
+        .fold(empty, |mut edges, q| {
+            let z = q[2] as f64 - story.floor_z;
+            let p = [q[0] as f64, q[1] as f64];
+            for &k in index.near(p) {
+                let w = &windows[k];
+                let (u, len) = frames[k];
+                let d = geom::sub(p, w.a);
+                if !(-BAND..=BAND).contains(&geom::dot(d, w.normal)) {
+                    continue;
+                }
+                let t = geom::dot(d, u);
+                let between = z > w.sill + BIN && z < w.head - BIN;
+                // The sill and head are read a bin in from the jambs the bins gave, as a jamb
+                // may still lie a few centimetres inside the window there.
+                let over = t > BIN.min(len / 4.0) && t < len - BIN.min(len / 4.0);
+                let e = &mut edges[k];
+                if between && (-JAMB_REACH..0.02).contains(&t) {
+                    keep(&mut e[0], t, PICK[0]);
+                }
+                if between && t > len - 0.02 && t <= len + JAMB_REACH {
+                    keep(&mut e[1], t, PICK[1]);
+                }
+                if over && (w.sill - HEIGHT_REACH..w.sill + BIN).contains(&z) {
+                    keep(&mut e[2], z, PICK[2]);
+                }
+                if over && z > w.head - BIN && z <= w.head + HEIGHT_REACH {
+                    keep(&mut e[3], z, PICK[3]);
+                }
             }
-            let t = geom::dot(d, u);
-            let between = z > w.sill + BIN && z < w.head - BIN;
-            // The sill and head are read a bin in from the jambs the bins gave, as a jamb may
-            // still lie a few centimetres inside the window there.
-            let over = t > BIN.min(len / 4.0) && t < len - BIN.min(len / 4.0);
-            let e = &mut edges[k];
-            if between && (-JAMB_REACH..0.02).contains(&t) {
-                keep(&mut e[0], t, f64::max);
+            edges
+        })
+        .reduce(empty, |mut a, b| {
+            for (x, y) in a.iter_mut().zip(b) {
+                for (j, v) in y.iter().enumerate() {
+                    if let Some(v) = v {
+                        keep(&mut x[j], *v, PICK[j]);
+                    }
+                }
             }
-            if between && t > len - 0.02 && t <= len + JAMB_REACH {
-                keep(&mut e[1], t, f64::min);
-            }
-            if over && (w.sill - HEIGHT_REACH..w.sill + BIN).contains(&z) {
-                keep(&mut e[2], z, f64::max);
-            }
-            if over && z > w.head - BIN && z <= w.head + HEIGHT_REACH {
-                keep(&mut e[3], z, f64::min);
-            }
-        }
-    }
+            a
+        });
     for ((w, &(u, len)), e) in windows.iter_mut().zip(&frames).zip(&edges) {
         let (t0, t1) = (e[0].unwrap_or(0.0), e[1].unwrap_or(len));
         let a = w.a;
