@@ -3,8 +3,6 @@
 //! a gap tell a door (a lintel: something between the door height and the ceiling) from an
 //! opening.
 
-use rayon::prelude::*;
-
 use super::faces::Face;
 use super::pairing::Piece;
 use super::segment::Free;
@@ -319,12 +317,10 @@ pub(crate) fn lintels(
         hit,
         mut heights,
         near_jamb,
-    } = points
-        .xyz
-        .par_iter()
-        .step_by(stride)
-        .with_min_len(1 << 16)
-        .fold(empty, |mut seen, q| {
+    } = points.fold(
+        stride,
+        empty,
+        |mut seen, q| {
             let z = q[2] as f64;
             let over = (z0..z1).contains(&z);
             if !over && !(low.0..low.1).contains(&z) {
@@ -357,8 +353,9 @@ pub(crate) fn lintels(
                 seen.heights[k].push(z);
             }
             seen
-        })
-        .reduce(empty, Seen::merge);
+        },
+        Seen::merge,
+    );
     for (k, g) in gaps.iter_mut().enumerate() {
         if let [Some(s), Some(e)] = near_jamb[k].map(|n| n.value()) {
             let e = -e;

@@ -24,6 +24,7 @@ pub(crate) mod windows;
 #[cfg(test)]
 mod tests;
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::geom::P2;
@@ -184,6 +185,25 @@ pub struct RoomsOutcome {
 pub struct StoryPoints<'a> {
     /// Local x, y, z of the points.
     pub xyz: &'a [[f32; 3]],
+}
+
+impl StoryPoints<'_> {
+    /// Every `stride`-th point, on all cores: each share is added into its own `empty()`,
+    /// and the shares merged. The result must not depend on how the points were shared out.
+    pub(crate) fn fold<T: Send>(
+        &self,
+        stride: usize,
+        empty: impl Fn() -> T + Sync + Send,
+        add: impl Fn(T, &[f32; 3]) -> T + Sync + Send,
+        merge: impl Fn(T, T) -> T + Sync + Send,
+    ) -> T {
+        self.xyz
+            .par_iter()
+            .step_by(stride)
+            .with_min_len(1 << 16)
+            .fold(&empty, add)
+            .reduce(&empty, merge)
+    }
 }
 
 /// Divides `story`'s free floor into rooms, finds its doors, openings and windows, and pairs

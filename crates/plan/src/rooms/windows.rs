@@ -9,8 +9,6 @@
 //! the last point below and above it (`refine`). Windows at least `min_window_width` wide are
 //! kept.
 
-use rayon::prelude::*;
-
 use super::faces::Face;
 use super::gaps::{ring_box, BoxIndex};
 use super::pairing::Coverage;
@@ -50,12 +48,10 @@ pub(crate) fn find(
     // A very dense cloud is read in a stride: 10 cm bins stay well filled. Both cores count a
     // share each, summed after.
     let stride = (points.xyz.len() / 4_000_000).max(1);
-    let grids = points
-        .xyz
-        .par_iter()
-        .step_by(stride)
-        .with_min_len(1 << 16)
-        .fold(empty, |mut grids, q| {
+    let grids = points.fold(
+        stride,
+        empty,
+        |mut grids, q| {
             let z = q[2] as f64 - story.floor_z;
             if !(0.0..height).contains(&z) {
                 return grids;
@@ -74,13 +70,14 @@ pub(crate) fn find(
                 grids[k][c * rows + r] += 1;
             }
             grids
-        })
-        .reduce(empty, |mut a, b| {
+        },
+        |mut a, b| {
             for (x, y) in a.iter_mut().zip(b) {
                 x.iter_mut().zip(y).for_each(|(u, v)| *u += v);
             }
             a
-        });
+        },
+    );
     let mut pieces: Vec<Piece> = Vec::new();
     for (k, &(i, f)) in outer.iter().enumerate() {
         let columns: Vec<Option<(f64, f64)>> = (0..cols(f))
@@ -269,12 +266,10 @@ fn refine(windows: &mut [Piece], story: &StoryPlan, points: &StoryPoints<'_>, st
     let index = BoxIndex::new(&boxes);
     // The nearest point to each edge: the same whichever core found it.
     const PICK: [fn(f64, f64) -> f64; 4] = [f64::max, f64::min, f64::max, f64::min];
-    let edges: Vec<[Option<f64>; 4]> = points
-        .xyz
-        .par_iter()
-        .step_by(stride)
-        .with_min_len(1 << 16)
-        .fold(empty, |mut edges, q| {
+    let edges: Vec<[Option<f64>; 4]> = points.fold(
+        stride,
+        empty,
+        |mut edges, q| {
             let z = q[2] as f64 - story.floor_z;
             let p = [q[0] as f64, q[1] as f64];
             for &k in index.near(p) {
@@ -304,8 +299,8 @@ fn refine(windows: &mut [Piece], story: &StoryPlan, points: &StoryPoints<'_>, st
                 }
             }
             edges
-        })
-        .reduce(empty, |mut a, b| {
+        },
+        |mut a, b| {
             for (x, y) in a.iter_mut().zip(b) {
                 for (j, v) in y.iter().enumerate() {
                     if let Some(v) = v {
@@ -314,7 +309,8 @@ fn refine(windows: &mut [Piece], story: &StoryPlan, points: &StoryPoints<'_>, st
                 }
             }
             a
-        });
+        },
+    );
     for ((w, &(u, len)), e) in windows.iter_mut().zip(&frames).zip(&edges) {
         let (t0, t1) = (e[0].unwrap_or(0.0), e[1].unwrap_or(len));
         let a = w.a;
