@@ -141,10 +141,11 @@ pub(crate) fn find(
             if leave > p.thickness / 2.0 && !(own_end && leave <= p.thickness) {
                 continue;
             }
-            // Solid on both sides of the ray's way out, leaving through no face of this wall's
-            // end: it went through a wall across, thinner than half this one (a partition
-            // fattened by voxels meeting a corridor wall), and the floor beyond is a room.
-            if !own_end && leave > 0.01 {
+            // Solid on both sides of the ray's way out: it went through a wall across (thinner
+            // than half this one, as a partition fattened by voxels meeting a corridor wall, or
+            // through a crack that joins this wall's faces to that wall's far face), and the
+            // floor beyond is a room. A slanted end has free floor on one side.
+            if leave > 0.01 {
                 let mid = geom::add(p_end, geom::scale(dir, leave / 2.0));
                 let n = p.left();
                 let off = p.thickness / 2.0 + 0.03;
