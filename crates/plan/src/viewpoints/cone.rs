@@ -393,6 +393,19 @@ fn fit_cone(
         obs.dt.is_some(),
         obs.dt.is_some(),
     ];
+    // Only points below the apex can be a sector's lowest, and the apex never rises above
+    // `height`'s top (or its start, when the height is fixed): the rest are dropped once
+    // here rather than skipped on every iteration. The order is kept, so the fit is the same.
+    let top = height.map_or(start.apex[2], |h| h.1.max(start.apex[2]));
+    let keep: Vec<usize> = (0..obs.pts.len())
+        .filter(|&i| obs.pts[i][2] < top)
+        .collect();
+    let kept_pts: Vec<[f64; 3]> = keep.iter().map(|&i| obs.pts[i]).collect();
+    let kept_dt: Option<Vec<f64>> = obs.dt.map(|d| keep.iter().map(|&i| d[i]).collect());
+    let obs = &Obs {
+        pts: &kept_pts,
+        dt: kept_dt.as_deref(),
+    };
     let mut cone = start;
     let residuals = |cone: &Cone, b: &[usize]| -> Vec<(f64, Vector6<f64>)> {
         let t = cone.slope;
