@@ -5,6 +5,7 @@
 # only the outermost cells of each 2-degree sector around the cloud's centre count (walls,
 # not hanging clutter). Ceiling = top of the highest dense 5 cm level. Needs numpy.
 #   python3 benches/phone-reach.py ../shared/data/real/ipad-room*.ply SIM/cloud.ply
+# Also prints density: points per occupied 10 cm cell, overall and in the wall band 0.3-1.0 m under the ceiling.
 # (SIM from `asbuilt simulate --building ceiling_only --ascii --keep plain --out SIM`)
 import sys, numpy as np
 def load(path):
@@ -43,4 +44,6 @@ for path in sys.argv[1:]:
     outer=rad>=far[ang]-0.3
     r=r[outer]
     q=np.percentile(r,[10,25,50,75,90])
-    print(f"{path.split('/')[-1]}: ceiling {ceil:.2f}, z {z.min():.2f}..{z.max():.2f}, wall cells {len(r)}, reach quantiles 10/25/50/75/90 % {np.round(q,2)}, share <0.6 m {np.mean(r<0.6):.2f}, <1.2 m {np.mean(r<1.2):.2f}, <2.0 m {np.mean(r<2.0):.2f}")
+    occ=len(starts); band=np.sum((z<ceil-0.3)&(z>ceil-1.0))
+    dens=f", {len(p)} points, {len(p)/occ:.1f} per occupied cell, {band/occ:.1f} per cell 0.3-1.0 m under the ceiling"
+    print(f"{path.split('/')[-1]}: ceiling {ceil:.2f}, z {z.min():.2f}..{z.max():.2f}, wall cells {len(r)}, reach quantiles 10/25/50/75/90 % {np.round(q,2)}, share <0.6 m {np.mean(r<0.6):.2f}, <1.2 m {np.mean(r<1.2):.2f}, <2.0 m {np.mean(r<2.0):.2f}{dens}")
