@@ -283,7 +283,7 @@ fn mobile_scan_of_the_lobby() {
 
 /// A mobile scanner walks the office's corridors and steps into each room: the rooms' far
 /// walls hold a tenth of the corridor walls' points. One story-wide point count dropped them
-/// and closed the rooms with chords (IoU 0.54); each cell is now held to the walls around it.
+/// and closed the rooms with chords (IoU 0.66); each cell is now held to the walls around it.
 #[test]
 fn sparse_mobile_scan_of_the_office() {
     let sim = scan(
@@ -549,8 +549,7 @@ fn thin_partitions_and_closets() {
     for (_, e) in class_runs(BuildingKind::Partitions, 400_000, 36) {
         // Every room and all three 1.2 × 1.5 m closets are there, and the 25-95 cm walls
         // between a door and a corner (completeness was 0.93: growing gave their room faces
-        // to the corridor face's model, and the partition ran on to the corridor; then 0.954
-        // until sparse wall cells were held to the density of the walls around them).
+        // to the corridor face's model, and the partition ran on to the corridor); 1.000 now.
         assert_class(&e, "partitions", 0.99, 0.02, 0.99);
         assert!(e.max_height_error() <= 0.02, "{}", e.summary());
     }
