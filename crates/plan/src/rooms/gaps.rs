@@ -91,13 +91,13 @@ fn rooms_beside(gap: &Gap, free: &Free) -> bool {
     let steps = (gap.width / STEP).floor() as usize;
     (1..steps).all(|k| {
         let at = geom::add(gap.a, geom::scale(gap.u, k as f64 * STEP));
-        let probe = Gap {
-            a: at,
-            b: at,
-            ..gap.clone()
-        };
-        probe.probes().iter().all(|&q| free.contains(q))
+        beside(free, at, gap.left(), gap.depth / 2.0 + 0.05) == [true, true]
     })
+}
+
+/// Whether the floor `off` to the left and to the right (along `n`) of `at` is free.
+fn beside(free: &Free, at: P2, n: P2, off: f64) -> [bool; 2] {
+    [1.0, -1.0].map(|k| free.contains(geom::add(at, geom::scale(n, k * off))))
 }
 
 /// Whether wall `q` continues wall `p` past a gap ending at `end`: parallel, on the same centre
@@ -147,11 +147,7 @@ pub(crate) fn find(
             // floor beyond is a room. A slanted end has free floor on one side.
             if leave > 0.01 {
                 let mid = geom::add(p_end, geom::scale(dir, leave / 2.0));
-                let n = p.left();
-                let off = p.thickness / 2.0 + 0.03;
-                let beside =
-                    [1.0, -1.0].map(|k| free.contains(geom::add(mid, geom::scale(n, k * off))));
-                if beside == [false, false] {
+                if beside(free, mid, p.left(), p.thickness / 2.0 + 0.03) == [false, false] {
                     continue;
                 }
             }
