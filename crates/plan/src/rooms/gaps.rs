@@ -113,98 +113,123 @@ fn continues(p: &Piece, q: &Piece, end: P2) -> bool {
         && (geom::dist(q.a, end) <= ALONG || geom::dist(q.b, end) <= ALONG)
 }
 
-/// Every gap at the ends of the paired walls, once each.
+/// Every gap at the ends of the paired walls, once each. Cracks are found first and closed:
+/// a door's free path through one (a ray from a partition's end through a crack at a T
+/// junction and over the corridor) is no door, and the floor beside a door is looked at with
+/// the cracks shut.
 pub(crate) fn find(
     pieces: &[Piece],
     faces: &[Face],
     free: &Free,
     params: &RoomsParams,
 ) -> Vec<Gap> {
-    let mut out: Vec<Gap> = Vec::new();
-    for p in pieces {
-        for (p_end, dir) in [(p.b, p.u), (p.a, geom::scale(p.u, -1.0))] {
-            let Some((leave, enter, exit)) = cast(p_end, dir, faces, params.max_door_width) else {
-                continue;
-            };
-            // The gap starts at the wall's own end: a square end takes half a thickness, a
-            // slanted one (its face joining one of the wall's two faces) up to a thickness. A
-            // ray that leaves solid farther on, or through another face, has gone through a
-            // wall meeting this one, and what follows is a room.
-            let own_end = exit.is_some_and(|k| {
-                let joins = |f: &Face| {
-                    [f.a, f.b].iter().any(|&q| {
-                        geom::dist(q, faces[k].a) < 0.01 || geom::dist(q, faces[k].b) < 0.01
-                    })
-                };
-                joins(&faces[p.faces[0]]) || joins(&faces[p.faces[1]])
-            });
-            if leave > p.thickness / 2.0 && !(own_end && leave <= p.thickness) {
-                continue;
-            }
-            // Solid on both sides of the ray's way out: it went through a wall across (thinner
-            // than half this one, as a partition fattened by voxels meeting a corridor wall, or
-            // through a crack that joins this wall's faces to that wall's far face), and the
-            // floor beyond is a room. A slanted end has free floor on one side.
-            if leave > 0.01 {
-                let mid = geom::add(p_end, geom::scale(dir, leave / 2.0));
-                if beside(free, mid, p.left(), p.thickness / 2.0 + 0.03) == [false, false] {
-                    continue;
-                }
-            }
-            let origin = geom::add(p_end, geom::scale(dir, leave));
-            let width = enter - leave;
-            let end = geom::add(p_end, geom::scale(dir, enter));
-            let mut gap = Gap {
-                a: origin,
-                b: end,
-                u: dir,
-                width,
-                depth: p.thickness,
-                lintel: false,
-                head_z: None,
-                crack: width < params.min_door_width,
-                reach: [0.05, 0.05],
-                jambs: None,
-                in_wall: false,
-            };
-            // A crack is free floor between the wall's end and the face; solid there is a
-            // wall meeting another, nothing to close.
-            let open = (0..20).any(|k| {
-                let f = (k as f64 + 0.5) / 20.0;
-                free.contains(geom::add(origin, geom::scale(dir, width * f)))
-            });
-            if gap.crack && !open {
-                continue;
-            }
-            gap.reach = [reach(&gap, free, -1.0), reach(&gap, free, 1.0)];
-            if gap.crack {
-                out.push(gap);
-                continue;
-            }
-            // Free floor through the gap and on both sides of it.
-            let along = [0.25, 0.5, 0.75]
-                .iter()
-                .all(|&s| free.contains(geom::add(origin, geom::scale(dir, width * s))));
-            let [l, r] = gap.probes();
-            if !along || !free.contains(l) || !free.contains(r) || !rooms_beside(&gap, free) {
-                continue;
-            }
-            gap.in_wall = pieces.iter().any(|q| continues(p, q, end));
-            let twin = out.iter().any(|g| {
-                !g.crack
-                    && geom::dist(g.center(), gap.center()) < 0.1
-                    && (g.width - gap.width).abs() < 0.1
-            });
-            if !twin {
-                out.push(gap);
-            }
+    // A piece no longer than it is thick (a blob where walls meet) has no direction to cast in.
+    let ends = || {
+        pieces
+            .iter()
+            .filter(|p| geom::dist(p.a, p.b) > p.thickness)
+            .flat_map(|p| [(p, p.b, p.u), (p, p.a, geom::scale(p.u, -1.0))])
+    };
+    let mut out: Vec<Gap> = ends()
+        .filter_map(|(p, end, dir)| cast_gap(p, end, dir, faces, free, params))
+        .filter(|g| g.crack)
+        .map(|mut g| {
+            g.reach = [reach(&g, free, -1.0), reach(&g, free, 1.0)];
+            g
+        })
+        .collect();
+    let closed = free.closing(out.iter().map(|g| g.rect()).collect());
+    for (p, p_end, dir) in ends() {
+        let Some(mut gap) = cast_gap(p, p_end, dir, faces, &closed, params) else {
+            continue;
+        };
+        if gap.crack {
+            continue;
+        }
+        gap.reach = [reach(&gap, &closed, -1.0), reach(&gap, &closed, 1.0)];
+        // Free floor through the gap and on both sides of it.
+        let (origin, width) = (gap.a, gap.width);
+        let along = [0.25, 0.5, 0.75]
+            .iter()
+            .all(|&s| closed.contains(geom::add(origin, geom::scale(dir, width * s))));
+        let [l, r] = gap.probes();
+        if !along || !closed.contains(l) || !closed.contains(r) || !rooms_beside(&gap, &closed) {
+            continue;
+        }
+        gap.in_wall = pieces.iter().any(|q| continues(p, q, gap.b));
+        let twin = out.iter().any(|g| {
+            !g.crack
+                && geom::dist(g.center(), gap.center()) < 0.1
+                && (g.width - gap.width).abs() < 0.1
+        });
+        if !twin {
+            out.push(gap);
         }
     }
-    // Cracks are closed first: a door's free path through one (a ray from a partition's end
-    // through a crack at a T junction and over the corridor) is no door.
     let cracks: Vec<Vec<P2>> = out.iter().filter(|g| g.crack).map(|g| g.rect()).collect();
     out.retain(|g| g.crack || !cracks.iter().any(|r| crosses(g, r)));
     out
+}
+
+/// The gap a ray from piece `p`'s end `p_end` along `dir` finds up to the next face, when it
+/// starts at the wall's own end and leaves through free floor; a crack only where there is free
+/// floor to close. Its reach and whether it is a door are left to the caller.
+fn cast_gap(
+    p: &Piece,
+    p_end: P2,
+    dir: P2,
+    faces: &[Face],
+    free: &Free,
+    params: &RoomsParams,
+) -> Option<Gap> {
+    let (leave, enter, exit) = cast(p_end, dir, faces, params.max_door_width)?;
+    // The gap starts at the wall's own end: a square end takes half a thickness, a slanted one
+    // (its face joining one of the wall's two faces) up to a thickness. A ray that leaves
+    // solid farther on, or through another face, has gone through a wall meeting this one, and
+    // what follows is a room.
+    let own_end = exit.is_some_and(|k| {
+        let joins = |f: &Face| {
+            [f.a, f.b]
+                .iter()
+                .any(|&q| geom::dist(q, faces[k].a) < 0.01 || geom::dist(q, faces[k].b) < 0.01)
+        };
+        joins(&faces[p.faces[0]]) || joins(&faces[p.faces[1]])
+    });
+    if leave > p.thickness / 2.0 && !(own_end && leave <= p.thickness) {
+        return None;
+    }
+    // Solid on both sides of the ray's way out: it went through a wall across (thinner than
+    // half this one, as a partition fattened by voxels meeting a corridor wall, or through a
+    // crack that joins this wall's faces to that wall's far face), and the floor beyond is a
+    // room. A slanted end has free floor on one side.
+    if leave > 0.01 {
+        let mid = geom::add(p_end, geom::scale(dir, leave / 2.0));
+        if beside(free, mid, p.left(), p.thickness / 2.0 + 0.03) == [false, false] {
+            return None;
+        }
+    }
+    let origin = geom::add(p_end, geom::scale(dir, leave));
+    let width = enter - leave;
+    let gap = Gap {
+        a: origin,
+        b: geom::add(p_end, geom::scale(dir, enter)),
+        u: dir,
+        width,
+        depth: p.thickness,
+        lintel: false,
+        head_z: None,
+        crack: width < params.min_door_width,
+        reach: [0.05, 0.05],
+        jambs: None,
+        in_wall: false,
+    };
+    // A crack is free floor between the wall's end and the face; solid there is a wall meeting
+    // another, nothing to close.
+    let open = (0..20).any(|k| {
+        let f = (k as f64 + 0.5) / 20.0;
+        free.contains(geom::add(origin, geom::scale(dir, width * f)))
+    });
+    (!gap.crack || open).then_some(gap)
 }
 
 /// Whether gap `g`'s centre line passes through the ring `r` (a closed crack) between its jambs.
@@ -376,8 +401,8 @@ pub(crate) fn lintels(
 /// own points lie lower.
 const JAMB_ABOVE_FLOOR: f64 = 0.3;
 /// How far from the plan's jamb the points' jamb is looked for, metres: the plan's faces stand
-/// a cell or so off.
-const JAMB_SEARCH: f64 = 0.15;
+/// a cell or so off, and a voxel grid's faces up to a voxel and a half.
+const JAMB_SEARCH: f64 = 0.2;
 /// The jamb is the third point nearest the gap, so one or two stray points in the doorway do
 /// not move it.
 const JAMB_RANK: usize = 3;

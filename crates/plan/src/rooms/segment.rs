@@ -14,6 +14,8 @@ use crate::validity::{resolve, Grid};
 /// The free floor, for point tests.
 pub(crate) struct Free {
     polygons: Vec<(Polygon, [f64; 4])>,
+    /// Rings taken out of the floor (closed cracks).
+    closed: Vec<(Vec<P2>, [f64; 4])>,
 }
 
 impl Free {
@@ -23,6 +25,21 @@ impl Free {
                 .iter()
                 .map(|p| (p.clone(), bbox(&p.exterior)))
                 .collect(),
+            closed: Vec::new(),
+        }
+    }
+
+    /// This floor with the `rings` (closed cracks) taken out.
+    pub fn closing(&self, rings: Vec<Vec<P2>>) -> Free {
+        Free {
+            polygons: self.polygons.clone(),
+            closed: rings
+                .into_iter()
+                .map(|r| {
+                    let b = bbox(&r);
+                    (r, b)
+                })
+                .collect(),
         }
     }
 
@@ -30,6 +47,10 @@ impl Free {
         self.polygons
             .iter()
             .any(|(poly, b)| in_box(b, p) && contains(poly, p))
+            && !self
+                .closed
+                .iter()
+                .any(|(r, b)| in_box(b, p) && point_in_ring(p, r))
     }
 }
 

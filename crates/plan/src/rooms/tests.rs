@@ -203,6 +203,35 @@ fn a_crack_at_a_t_junction_does_not_split_the_corridor() {
     assert!(out.spaces.doors.iter().all(|d| d.kind == DoorKind::Door));
 }
 
+/// The same corridor, the upper offices divided by a 24 cm partition, with a crack 6 cm wide
+/// beside its east face through the corridor wall. The partition's centre line leaves the
+/// corridor wall with solid on its west side and the crack on its east: once the crack is
+/// closed, solid on both, a wall across, so no opening crosses the corridor.
+#[test]
+fn a_crack_beside_a_thick_partition_does_not_split_the_corridor() {
+    let open = vec![
+        Rect::new(0.0, 0.0, 8.24, 2.0),
+        Rect::new(4.24, 2.0, 4.3, 2.1),
+        Rect::new(0.0, 2.1, 4.0, 6.0),
+        Rect::new(4.24, 2.1, 8.24, 6.0),
+        Rect::new(0.0, -4.0, 4.07, -0.1),
+        Rect::new(4.17, -4.0, 8.24, -0.1),
+    ];
+    let doors = vec![
+        Rect::new(1.0, 2.0, 1.9, 2.1),
+        Rect::new(6.0, 2.0, 6.9, 2.1),
+        Rect::new(1.0, -0.1, 1.9, 0.0),
+        Rect::new(6.0, -0.1, 6.9, 0.0),
+    ];
+    let (plan, points) = story(&open, &doors, &[], true);
+    let out = run(&plan, &points, &[]);
+    let a = areas(&out);
+    assert_eq!(a.len(), 5, "{a:?}");
+    assert!(a.iter().any(|&x| (x - 16.48).abs() < 0.05), "{a:?}");
+    assert_eq!(out.spaces.doors.len(), 4, "{:?}", out.spaces.doors);
+    assert!(out.spaces.doors.iter().all(|d| d.kind == DoorKind::Door));
+}
+
 #[test]
 fn a_column_near_a_wall_divides_nothing() {
     // A 40 cm column 1 m from the south wall: its faces pair like a wall's, and the gap to the

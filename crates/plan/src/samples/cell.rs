@@ -233,7 +233,9 @@ impl Tests {
         min_points: usize,
     ) -> Result<Wall, Reject> {
         let bins: Vec<u8> = pts.iter().map(|p| self.bin_code(p[2])).collect();
-        self.run_binned(pts, &bins, lo, cell, min_points, &mut Vec::new())
+        self.run_binned(pts, &bins, lo, cell, min_points, &mut Vec::new(), || {
+            pca_normal(pts)
+        })
     }
 
     /// Whether any of the height-bin codes `bins` lies in the lower half of the wall, above
@@ -252,7 +254,10 @@ impl Tests {
     }
 
     /// [`Self::run`] with each point's height bin given (see [`Self::bin_code`]). `within`
-    /// is scratch for the median.
+    /// is scratch for the median. `wide` gives the PCA normal and confidence of the points
+    /// around a wider block, asked for only where the neighbourhood's points stand in a few
+    /// columns (a voxel lattice), too few to give a direction of their own.
+    #[allow(clippy::too_many_arguments)]
     pub fn run_binned(
         &self,
         pts: &[[f32; 3]],
@@ -261,6 +266,7 @@ impl Tests {
         cell: f64,
         min_points: usize,
         within: &mut Vec<f32>,
+        wide: impl FnOnce() -> Option<(P2, f64)>,
     ) -> Result<Wall, Reject> {
         if pts.len() < min_points.max(2) {
             return Err(Reject::TooFew);
@@ -309,8 +315,16 @@ impl Tests {
                 .fold((0u32, 0usize), tally)
         };
         self.histogram(mask, n)?;
-        let pos = median_in_cell(pts, lo, cell, within).ok_or(Reject::MedianOutside)?;
-        let (normal, confidence) = pca_normal(pts).ok_or(Reject::Unaligned)?;
+        let pos = match median_in_cell(pts, lo, cell, within) {
+            Some(pos) => pos,
+            None => own_face(pts, lo, cell, within).ok_or(Reject::MedianOutside)?,
+        };
+        let pca = if on_lattice(pts) {
+            wide()
+        } else {
+            pca_normal(pts)
+        };
+        let (normal, confidence) = pca.ok_or(Reject::Unaligned)?;
         if confidence < self.min_confidence {
             return Err(Reject::Unaligned);
         }
@@ -399,6 +413,54 @@ fn median_in_cell(pts: &[[f32; 3]], lo: P2, cell: f64, within: &mut Vec<f32>) ->
         *slot = *v as f64;
     }
     Some(m)
+}
+
+/// The median of the neighbourhood's points within the cell itself, where the median of all
+/// of them is pulled away by something denser beside it: the cell holds at least a quarter of
+/// the points, and their median lies at least half a cell from the median of all. A thin
+/// wall's sparsely seen face next to its dense one, or a voxel column beside a denser wall at
+/// a junction, would otherwise give no sample; a wall whose noise straddles a cell edge
+/// (the two medians close) gives its sample in one cell only.
+fn own_face(pts: &[[f32; 3]], lo: P2, cell: f64, within: &mut Vec<f32>) -> Option<P2> {
+    let inside = |p: &[f32; 3]| {
+        (0..2).all(|k| {
+            let v = p[k] as f64;
+            v >= lo[k] && v < lo[k] + cell
+        })
+    };
+    let own = pts.iter().filter(|p| inside(p)).count();
+    if own == 0 || own * 4 < pts.len() {
+        return None;
+    }
+    let mut median = |keep: &dyn Fn(&[f32; 3]) -> bool, k: usize| {
+        within.clear();
+        within.extend(pts.iter().filter(|p| keep(p)).map(|p| p[k]));
+        let mid = within.len() / 2;
+        *within.select_nth_unstable_by(mid, f32::total_cmp).1 as f64
+    };
+    let mine = [median(&inside, 0), median(&inside, 1)];
+    let all = [median(&|_| true, 0), median(&|_| true, 1)];
+    (crate::geom::dist(mine, all) >= cell / 2.0).then_some(mine)
+}
+
+/// Points sampled across the neighbourhood for [`on_lattice`].
+const LATTICE_PROBE: usize = 32;
+
+/// Whether the neighbourhood's points stand in a few vertical columns: among up to
+/// [`LATTICE_PROBE`] of them, spread over the list, each x, y repeats four times or more on
+/// average. Voxel centres do, and a cell's neighbourhood then holds two to four columns,
+/// whose PCA says little about the wall's direction. A scanned surface never repeats x, y.
+fn on_lattice(pts: &[[f32; 3]]) -> bool {
+    let step = pts.len().div_ceil(LATTICE_PROBE).max(1);
+    let mut xy: Vec<(u32, u32)> = pts
+        .iter()
+        .step_by(step)
+        .map(|p| (p[0].to_bits(), p[1].to_bits()))
+        .collect();
+    let m = xy.len();
+    xy.sort_unstable();
+    xy.dedup();
+    xy.len() * 4 <= m
 }
 
 /// The PCA normal of the x, y positions: the eigenvector of the smaller eigenvalue λ1 of the
@@ -713,5 +775,96 @@ mod tests {
         // A sparse wall: 13 interior points in 8 interior bins, two of them near the ceiling.
         let wall = 0b1110_0101_1010_1101u32;
         assert_eq!(t.histogram(wall, 13), Ok(()));
+    }
+
+    #[test]
+    fn a_noisy_wall_on_a_cell_edge_gives_one_sample() {
+        // A wall at y = 0.05, its points 2 mm either side of the edge between two cells: the
+        // median of all is in the upper cell, and the lower one, holding half the points, is
+        // not a face of its own (its median is 4 mm away).
+        let pts = wall(-0.05, 0.05, 10, (0.0, 3.0), 20);
+        let t = tests();
+        assert_eq!(
+            t.run(&pts, [-0.025, 0.0], 0.05, 50),
+            Err(Reject::MedianOutside)
+        );
+        assert!(t.run(&pts, [-0.025, 0.05], 0.05, 50).is_ok());
+    }
+
+    /// Vertical columns of 30 points each from the floor to the ceiling at `xy`.
+    fn columns(xy: &[[f32; 2]]) -> Vec<[f32; 3]> {
+        xy.iter()
+            .flat_map(|c| (0..30).map(move |b| [c[0], c[1], 3.0 * b as f32 / 29.0]))
+            .collect()
+    }
+
+    #[test]
+    fn on_a_voxel_lattice_the_normal_comes_from_the_wider_block() {
+        let t = tests();
+        let bins = |pts: &[[f32; 3]]| pts.iter().map(|p| t.bin_code(p[2])).collect::<Vec<_>>();
+        let lo = [-0.025, 0.0];
+        // Four columns at the corners of a square: no direction among them.
+        let square = columns(&[[-0.02, 0.005], [0.02, 0.005], [-0.02, 0.045], [0.02, 0.045]]);
+        assert!(on_lattice(&square));
+        assert_eq!(t.run(&square, lo, 0.05, 50), Err(Reject::Unaligned));
+        // The block around them says the wall runs along x.
+        let w = t
+            .run_binned(
+                &square,
+                &bins(&square),
+                lo,
+                0.05,
+                50,
+                &mut Vec::new(),
+                || Some(([0.0, 1.0], 0.9)),
+            )
+            .unwrap();
+        assert_eq!((w.normal, w.confidence), ([0.0, 1.0], 0.9));
+        // Scanned points never repeat x, y: their own PCA is used and the block is not asked.
+        let scanned = wall(-0.05, 0.02, 10, (0.0, 3.0), 20);
+        assert!(!on_lattice(&scanned));
+        let w = t
+            .run_binned(
+                &scanned,
+                &bins(&scanned),
+                lo,
+                0.05,
+                50,
+                &mut Vec::new(),
+                || panic!("the block is asked only on a lattice"),
+            )
+            .unwrap();
+        assert!(w.normal[0].abs() < 1e-6 && w.confidence > 0.9);
+    }
+
+    #[test]
+    fn a_column_beside_a_denser_pair_gets_its_own_sample() {
+        // Voxel columns: one in the cell at (0, 0.01), two of the wall beside it at y = 0.06,
+        // in the next cell. The median of all is there; the cell holds a third of the points
+        // and its own median is 5 cm away, so it is a face of its own.
+        let t = tests();
+        let pts = columns(&[[0.0, 0.01], [-0.02, 0.06], [0.02, 0.06]]);
+        let bins: Vec<u8> = pts.iter().map(|p| t.bin_code(p[2])).collect();
+        let lo = [-0.025, 0.0];
+        assert_eq!(median_in_cell(&pts, lo, 0.05, &mut Vec::new()), None);
+        let w = t
+            .run_binned(&pts, &bins, lo, 0.05, 50, &mut Vec::new(), || {
+                Some(([0.0, 1.0], 0.9))
+            })
+            .unwrap();
+        assert_eq!(w.pos, [0.0, 0.01f32 as f64]);
+        // With a quarter of the points short of it, the cell is not.
+        let fewer = columns(&[[0.0, 0.01], [-0.02, 0.06], [0.02, 0.06], [0.0, 0.07]]);
+        let fewer: Vec<[f32; 3]> = fewer
+            .into_iter()
+            .filter(|p| p[1] > 0.02 || p[2] < 2.0)
+            .collect();
+        let bins: Vec<u8> = fewer.iter().map(|p| t.bin_code(p[2])).collect();
+        assert_eq!(
+            t.run_binned(&fewer, &bins, lo, 0.05, 50, &mut Vec::new(), || {
+                Some(([0.0, 1.0], 0.9))
+            }),
+            Err(Reject::MedianOutside)
+        );
     }
 }

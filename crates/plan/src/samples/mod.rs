@@ -616,6 +616,10 @@ impl Scan<'_> {
             g.frame.cell,
             self.min_points,
             &mut s.within,
+            || {
+                let block: Vec<[f32; 3]> = g.block_runs(i, j).flatten().map(|k| g.pts[k]).collect();
+                cell::pca_normal(&block)
+            },
         ) {
             Ok(w) => w,
             Err(r) if r.wall_like() => {
@@ -632,9 +636,14 @@ impl Scan<'_> {
             }
             Err(r) => return Err(r),
         };
-        let seen = self
-            .views
-            .observe(&s.slots, &s.times, count, wall.pos, wall.normal);
+        let seen = self.views.observe(
+            &s.pts,
+            &s.slots,
+            &s.times,
+            g.frame.cell / 2.0,
+            wall.pos,
+            wall.normal,
+        );
         Ok(Some(Found {
             cell,
             count,

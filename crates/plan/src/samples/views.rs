@@ -156,11 +156,30 @@ impl<'a> Views<'a> {
         }
     }
 
-    /// Orients `normal` by a majority of the `n` points around the sample at `pos` (each point
-    /// votes for the side its scanner stood on; a tie goes to the nearest scanner), and lists
-    /// the viewpoints that saw it. `slots` or `times` say who saw each point (see
-    /// [`Self::carry`]).
-    pub fn observe(&self, slots: &[u16], times: &[f64], n: usize, pos: P2, normal: P2) -> Seen {
+    /// Orients `normal` by a majority of the points `pts` around the sample at `pos` that lie
+    /// on its face, within `half` of it along the normal (each votes for the side its scanner
+    /// stood on; a tie goes to the nearest scanner), and lists the viewpoints that saw that
+    /// face from in front. `slots` or `times` say who saw each point (see [`Self::carry`]).
+    ///
+    /// Points off the face belong to something else: the far face of a thin wall, or a
+    /// perpendicular wall at a junction. Their scanners stood elsewhere, and a line of sight
+    /// from behind the face would cut the wall it ends on.
+    pub fn observe(
+        &self,
+        pts: &[[f32; 3]],
+        slots: &[u16],
+        times: &[f64],
+        half: f64,
+        pos: P2,
+        normal: P2,
+    ) -> Seen {
+        let off = |k: usize| {
+            let p = pts[k];
+            dot(normal, [p[0] as f64 - pos[0], p[1] as f64 - pos[1]]).abs()
+        };
+        // A sample whose points all lie off its face (a median between two) keeps them all.
+        let any_on = (0..pts.len()).any(|k| off(k) <= half);
+        let on_face = |k: usize| !any_on || off(k) <= half;
         let mut tally = Tally::new(pos, normal);
         match &self.kind {
             Kind::Static { .. } => {
@@ -169,7 +188,7 @@ impl<'a> Views<'a> {
                 // viewer (the first at the least distance) and the list come out as if each
                 // point were weighed in turn.
                 let mut per_slot: Vec<(u16, usize)> = Vec::new();
-                for k in 0..n {
+                for k in (0..pts.len()).filter(|&k| on_face(k)) {
                     let Some(slot) = self.slot(slots, k) else {
                         continue;
                     };
@@ -185,7 +204,7 @@ impl<'a> Views<'a> {
                 }
             }
             _ => {
-                for k in 0..n {
+                for k in (0..pts.len()).filter(|&k| on_face(k)) {
                     if let Some((v, id)) = self.viewer(slots, times, k) {
                         tally.add(v, id, 1);
                     }
@@ -227,7 +246,8 @@ struct Tally {
     votes: i64,
     /// Distance and side of the nearest viewer.
     nearest: Option<(f64, f64)>,
-    seen_from: Vec<u32>,
+    /// Listed viewers, with the side of the unoriented normal each stood on.
+    seen_from: Vec<(u32, f64)>,
 }
 
 impl Tally {
@@ -250,28 +270,35 @@ impl Tally {
             self.nearest = Some((d, side));
         }
         if let Some(id) = id {
-            self.seen_from.push(id);
+            self.seen_from.push((id, side));
         }
     }
 
-    fn seen(mut self, normal: P2) -> Seen {
-        self.seen_from.sort_unstable();
-        self.seen_from.dedup();
-        if self.seen_from.len() > MAX_SEEN_FROM {
-            let n = self.seen_from.len();
-            self.seen_from = (0..MAX_SEEN_FROM)
-                .map(|k| self.seen_from[k * n / MAX_SEEN_FROM])
-                .collect();
-        }
+    fn seen(self, normal: P2) -> Seen {
         let votes = self.votes;
         let flip = votes < 0 || (votes == 0 && self.nearest.is_some_and(|(_, side)| side < 0.0));
+        // A viewer behind the oriented face saw it through the wall, or saw another face.
+        let mut seen_from: Vec<u32> = self
+            .seen_from
+            .iter()
+            .filter(|&&(_, side)| if flip { side <= 0.0 } else { side >= 0.0 })
+            .map(|&(id, _)| id)
+            .collect();
+        seen_from.sort_unstable();
+        seen_from.dedup();
+        if seen_from.len() > MAX_SEEN_FROM {
+            let n = seen_from.len();
+            seen_from = (0..MAX_SEEN_FROM)
+                .map(|k| seen_from[k * n / MAX_SEEN_FROM])
+                .collect();
+        }
         Seen {
             normal: if flip {
                 [-normal[0], -normal[1]]
             } else {
                 normal
             },
-            seen_from: self.seen_from,
+            seen_from,
             nearest: self.nearest.map(|(d, _)| d),
         }
     }
@@ -357,6 +384,15 @@ mod tests {
         Story::flat(0, 0.0, 3.0, -0.5, 3.5)
     }
 
+    /// The cloud's points as the grid holds them.
+    fn flat(cloud: &PointCloud) -> Vec<[f32; 3]> {
+        cloud
+            .xyz
+            .iter()
+            .map(|p| [p[0] as f32, p[1] as f32, p[2] as f32])
+            .collect()
+    }
+
     fn pose(index: u32, position: [f64; 3]) -> ScanPose {
         ScanPose {
             index,
@@ -382,7 +418,14 @@ mod tests {
         // Points 0 and 1 come from the listed scan, 2 and 3 from the upper one: a tie of
         // votes (the normal faces both), broken by the nearer scanner at y = -2.
         assert_eq!(views.carry(), Carry::Slots);
-        let seen = views.observe(&cloud.scan, &[], 4, [0.0, 0.0], [0.0, 1.0]);
+        let seen = views.observe(
+            &flat(&cloud),
+            &cloud.scan,
+            &[],
+            0.025,
+            [0.0, 0.0],
+            [0.0, 1.0],
+        );
         assert_eq!(seen.normal, [0.0, -1.0]);
         assert_eq!(seen.seen_from, vec![0]);
         assert_eq!(seen.nearest, Some(2.0));
@@ -450,7 +493,14 @@ mod tests {
             );
         }
         assert_eq!(views.carry(), Carry::Times);
-        let seen = views.observe(&[], &cloud.time, 2, [0.25, 0.0], [0.0, 1.0]);
+        let seen = views.observe(
+            &flat(&cloud),
+            &[],
+            &cloud.time,
+            0.025,
+            [0.25, 0.0],
+            [0.0, 1.0],
+        );
         assert_eq!(seen.normal, [0.0, -1.0]);
         // t = 2.5 is where the scanner stood at x = 0.25; t = 9 at x = 0.9.
         assert_eq!(seen.seen_from, vec![25, 90]);
@@ -465,8 +515,59 @@ mod tests {
         };
         let views = Views::new(&cloud, &cloud.viewpoints, &story());
         assert_eq!(views.carry(), Carry::Nothing);
-        let seen = views.observe(&[], &[], 1, [0.0, 0.0], [0.0, 1.0]);
+        let seen = views.observe(&flat(&cloud), &[], &[], 0.025, [0.0, 0.0], [0.0, 1.0]);
         assert_eq!(seen.normal, [0.0, 1.0]);
         assert!(seen.seen_from.is_empty() && seen.nearest.is_none());
+    }
+
+    #[test]
+    fn only_the_points_on_the_face_vote_and_viewers_behind_it_are_dropped() {
+        // A 10 cm wall along x: its face at y = 0 seen by scan 1 from y = -2 (two points), its
+        // far face at y = 0.1 by scans 2 and 3 from y = +3 (three points). The neighbourhood of
+        // a sample on the near face holds both.
+        let cloud = PointCloud {
+            xyz: vec![
+                [0.0, 0.0, 1.0],
+                [0.01, 0.0, 1.5],
+                [0.0, 0.1, 1.0],
+                [0.01, 0.1, 1.5],
+                [0.02, 0.1, 2.0],
+            ],
+            scan: vec![0, 0, 1, 2, 2],
+            scan_ids: vec![1, 2, 3],
+            viewpoints: Viewpoints::Static(vec![
+                pose(1, [0.0, -2.0, 1.5]),
+                pose(2, [0.0, 3.0, 1.5]),
+                pose(3, [1.0, 3.0, 1.5]),
+            ]),
+            ..Default::default()
+        };
+        let views = Views::new(&cloud, &cloud.viewpoints, &story());
+        let pts = flat(&cloud);
+        let seen = views.observe(&pts, &cloud.scan, &[], 0.025, [0.0, 0.0], [0.0, 1.0]);
+        // All five would vote the normal toward y = +3 (3 to 2); the face's own two turn it.
+        assert_eq!(seen.normal, [0.0, -1.0]);
+        assert_eq!(seen.seen_from, vec![0]);
+        // The far face's sample is seen from y = +3 only.
+        let far = views.observe(&pts, &cloud.scan, &[], 0.025, [0.0, 0.1], [0.0, 1.0]);
+        assert_eq!(far.normal, [0.0, 1.0]);
+        assert_eq!(far.seen_from, vec![1, 2]);
+        // A face seen mostly from in front: the one point seen from behind (through a gap,
+        // or a stray return) does not list its scanner.
+        let mixed = PointCloud {
+            xyz: vec![[0.0, 0.0, 1.0], [0.01, 0.0, 1.5], [0.02, 0.0, 2.0]],
+            scan: vec![0, 0, 1],
+            ..cloud.clone()
+        };
+        let seen = views.observe(
+            &flat(&mixed),
+            &mixed.scan,
+            &[],
+            0.025,
+            [0.0, 0.0],
+            [0.0, 1.0],
+        );
+        assert_eq!(seen.normal, [0.0, -1.0]);
+        assert_eq!(seen.seen_from, vec![0]);
     }
 }
