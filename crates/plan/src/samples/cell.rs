@@ -255,8 +255,8 @@ impl Tests {
 
     /// [`Self::run`] with each point's height bin given (see [`Self::bin_code`]). `within`
     /// is scratch for the median. `wide` gives the PCA normal and confidence of the points
-    /// around a wider block, asked for only where the neighbourhood's points stand in a few
-    /// columns (a voxel lattice), too few to give a direction of their own.
+    /// around a wider block, asked for only where the neighbourhood's own are not aligned and
+    /// stand in a few columns (a voxel lattice).
     #[allow(clippy::too_many_arguments)]
     pub fn run_binned(
         &self,
@@ -319,11 +319,12 @@ impl Tests {
             Some(pos) => pos,
             None => own_face(pts, lo, cell, within).ok_or(Reject::MedianOutside)?,
         };
-        let pca = if on_lattice(pts) {
-            wide()
-        } else {
-            pca_normal(pts)
-        };
+        let aligned = |pca: &Option<(P2, f64)>| pca.is_some_and(|(_, c)| c >= self.min_confidence);
+        let mut pca = pca_normal(pts);
+        // Two to four voxel columns give no direction of their own (a square of them none).
+        if !aligned(&pca) && on_lattice(pts) {
+            pca = wide();
+        }
         let (normal, confidence) = pca.ok_or(Reject::Unaligned)?;
         if confidence < self.min_confidence {
             return Err(Reject::Unaligned);
