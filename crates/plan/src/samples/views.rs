@@ -384,15 +384,6 @@ mod tests {
         Story::flat(0, 0.0, 3.0, -0.5, 3.5)
     }
 
-    /// The cloud's points as the grid holds them.
-    fn flat(cloud: &PointCloud) -> Vec<[f32; 3]> {
-        cloud
-            .xyz
-            .iter()
-            .map(|p| [p[0] as f32, p[1] as f32, p[2] as f32])
-            .collect()
-    }
-
     fn pose(index: u32, position: [f64; 3]) -> ScanPose {
         ScanPose {
             index,
@@ -418,14 +409,7 @@ mod tests {
         // Points 0 and 1 come from the listed scan, 2 and 3 from the upper one: a tie of
         // votes (the normal faces both), broken by the nearer scanner at y = -2.
         assert_eq!(views.carry(), Carry::Slots);
-        let seen = views.observe(
-            &flat(&cloud),
-            &cloud.scan,
-            &[],
-            0.025,
-            [0.0, 0.0],
-            [0.0, 1.0],
-        );
+        let seen = views.observe(&cloud.xyz, &cloud.scan, &[], 0.025, [0.0, 0.0], [0.0, 1.0]);
         assert_eq!(seen.normal, [0.0, -1.0]);
         assert_eq!(seen.seen_from, vec![0]);
         assert_eq!(seen.nearest, Some(2.0));
@@ -493,14 +477,7 @@ mod tests {
             );
         }
         assert_eq!(views.carry(), Carry::Times);
-        let seen = views.observe(
-            &flat(&cloud),
-            &[],
-            &cloud.time,
-            0.025,
-            [0.25, 0.0],
-            [0.0, 1.0],
-        );
+        let seen = views.observe(&cloud.xyz, &[], &cloud.time, 0.025, [0.25, 0.0], [0.0, 1.0]);
         assert_eq!(seen.normal, [0.0, -1.0]);
         // t = 2.5 is where the scanner stood at x = 0.25; t = 9 at x = 0.9.
         assert_eq!(seen.seen_from, vec![25, 90]);
@@ -515,7 +492,7 @@ mod tests {
         };
         let views = Views::new(&cloud, &cloud.viewpoints, &story());
         assert_eq!(views.carry(), Carry::Nothing);
-        let seen = views.observe(&flat(&cloud), &[], &[], 0.025, [0.0, 0.0], [0.0, 1.0]);
+        let seen = views.observe(&cloud.xyz, &[], &[], 0.025, [0.0, 0.0], [0.0, 1.0]);
         assert_eq!(seen.normal, [0.0, 1.0]);
         assert!(seen.seen_from.is_empty() && seen.nearest.is_none());
     }
@@ -543,7 +520,7 @@ mod tests {
             ..Default::default()
         };
         let views = Views::new(&cloud, &cloud.viewpoints, &story());
-        let pts = flat(&cloud);
+        let pts = cloud.xyz.clone();
         let seen = views.observe(&pts, &cloud.scan, &[], 0.025, [0.0, 0.0], [0.0, 1.0]);
         // All five would vote the normal toward y = +3 (3 to 2); the face's own two turn it.
         assert_eq!(seen.normal, [0.0, -1.0]);
@@ -559,14 +536,7 @@ mod tests {
             scan: vec![0, 0, 1],
             ..cloud.clone()
         };
-        let seen = views.observe(
-            &flat(&mixed),
-            &mixed.scan,
-            &[],
-            0.025,
-            [0.0, 0.0],
-            [0.0, 1.0],
-        );
+        let seen = views.observe(&mixed.xyz, &mixed.scan, &[], 0.025, [0.0, 0.0], [0.0, 1.0]);
         assert_eq!(seen.normal, [0.0, -1.0]);
         assert_eq!(seen.seen_from, vec![0]);
     }
