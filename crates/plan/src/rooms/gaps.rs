@@ -89,7 +89,9 @@ impl Gap {
 fn rooms_beside(gap: &Gap, free: &Free) -> bool {
     const STEP: f64 = 0.05;
     let steps = (gap.width / STEP).floor() as usize;
-    (1..steps).all(|k| {
+    // The wall that ends at the first jamb has a room on each side too; a partition flush
+    // with a corridor's face, beside a door, has the corridor wall on one side.
+    (-1..steps as i64).filter(|&k| k != 0).all(|k| {
         let at = geom::add(gap.a, geom::scale(gap.u, k as f64 * STEP));
         beside(free, at, gap.left(), gap.depth / 2.0 + 0.05) == [true, true]
     })

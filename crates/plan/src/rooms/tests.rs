@@ -232,6 +232,33 @@ fn a_crack_beside_a_thick_partition_does_not_split_the_corridor() {
     assert!(out.spaces.doors.iter().all(|d| d.kind == DoorKind::Door));
 }
 
+/// Offices either side of a corridor, their 14 cm partitions in line, and an office door right
+/// beside the upper partition: the partition's end is flush with the corridor's face, and its
+/// centre line runs on across the corridor to the lower partition. The corridor wall stands
+/// on one side of that end, so it is no jamb, and the corridor stays one room.
+#[test]
+fn a_partition_beside_a_door_does_not_split_the_corridor() {
+    let open = vec![
+        Rect::new(0.0, 0.0, 8.14, 2.0),
+        Rect::new(0.0, 2.1, 4.0, 6.0),
+        Rect::new(4.14, 2.1, 8.14, 6.0),
+        Rect::new(0.0, -4.0, 4.0, -0.1),
+        Rect::new(4.14, -4.0, 8.14, -0.1),
+    ];
+    let doors = vec![
+        Rect::new(3.1, 2.0, 4.0, 2.1),
+        Rect::new(5.0, 2.0, 5.9, 2.1),
+        Rect::new(1.0, -0.1, 1.9, 0.0),
+        Rect::new(5.0, -0.1, 5.9, 0.0),
+    ];
+    let (plan, points) = story(&open, &doors, &[], true);
+    let out = run(&plan, &points, &[]);
+    let a = areas(&out);
+    assert_eq!(a.len(), 5, "{a:?}");
+    assert!((a[4] - 16.28).abs() < 0.05, "{a:?}");
+    assert_eq!(out.spaces.doors.len(), 4, "{:?}", out.spaces.doors);
+}
+
 #[test]
 fn a_column_near_a_wall_divides_nothing() {
     // A 40 cm column 1 m from the south wall: its faces pair like a wall's, and the gap to the
