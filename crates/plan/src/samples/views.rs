@@ -45,6 +45,9 @@ enum Kind<'a> {
         traj: Vec<TrajectorySample>,
         /// Times of the listed viewpoints, ascending.
         listed_t: Vec<f64>,
+        /// Consecutive samples farther apart than this are a gap in the path (see
+        /// [`max_step`]): nothing is interpolated across it.
+        max_step: f64,
     },
 }
 
@@ -107,7 +110,12 @@ impl<'a> Views<'a> {
                     .map(|s| [s.position[0], s.position[1]])
                     .collect();
                 let (viewpoints, listed_t) = list_along(&inside, TRAJECTORY_SPACING);
-                let kind = Kind::Trajectory { traj, listed_t };
+                let max_step = max_step(&traj);
+                let kind = Kind::Trajectory {
+                    traj,
+                    listed_t,
+                    max_step,
+                };
                 Views {
                     kind,
                     viewpoints,
@@ -149,9 +157,16 @@ impl<'a> Views<'a> {
                 };
                 Some((*poses.get(slot)?, *listed.get(slot)?))
             }
-            Kind::Trajectory { traj, listed_t, .. } => {
+            Kind::Trajectory {
+                traj,
+                listed_t,
+                max_step,
+            } => {
                 let t = *times.get(k)?;
-                Some((position_at(traj, t)?, nearest_in_time(listed_t, t)))
+                Some((
+                    position_at(traj, t, *max_step)?,
+                    nearest_in_time(listed_t, t),
+                ))
             }
         }
     }
@@ -335,8 +350,37 @@ fn list_along(samples: &[&TrajectorySample], spacing: f64) -> (Vec<P2>, Vec<f64>
     (points, times)
 }
 
-/// The trajectory's x, y at time `t`, interpolated linearly and clamped to its ends.
-fn position_at(traj: &[TrajectorySample], t: f64) -> Option<P2> {
+/// Consecutive trajectory samples farther apart than this, in 3D, leave a gap in the path:
+/// [`GAP_STEPS`] times the median step, and never under [`MIN_GAP`]. A path estimated from the
+/// points has gaps where windows could not be located (on stairs, say); a straight line across
+/// one can run through a closed shaft, and lines of sight from there fill it in.
+fn max_step(traj: &[TrajectorySample]) -> f64 {
+    let mut steps: Vec<f64> = traj
+        .windows(2)
+        .map(|w| dist3(w[0].position, w[1].position))
+        .filter(|d| d.is_finite())
+        .collect();
+    if steps.is_empty() {
+        return f64::INFINITY;
+    }
+    let mid = steps.len() / 2;
+    let median = *steps.select_nth_unstable_by(mid, f64::total_cmp).1;
+    (GAP_STEPS * median).max(MIN_GAP)
+}
+
+/// See [`max_step`].
+const GAP_STEPS: f64 = 3.0;
+/// See [`max_step`], metres: a scanner carried at walking pace, sampled every few tenths of a
+/// second, moves less; a given trajectory's samples come much closer.
+const MIN_GAP: f64 = 2.0;
+
+fn dist3(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+/// The trajectory's x, y at time `t`, interpolated linearly and clamped to its ends; `None`
+/// between two samples more than `max_step` apart.
+fn position_at(traj: &[TrajectorySample], t: f64, max_step: f64) -> Option<P2> {
     if !t.is_finite() {
         return None;
     }
@@ -347,6 +391,9 @@ fn position_at(traj: &[TrajectorySample], t: f64) -> Option<P2> {
         k if k == traj.len() => traj.last().map(xy),
         k => {
             let (a, b) = (&traj[k - 1], &traj[k]);
+            if dist3(a.position, b.position) > max_step {
+                return None;
+            }
             let w = if b.t > a.t {
                 (t - a.t) / (b.t - a.t)
             } else {
@@ -458,8 +505,11 @@ mod tests {
                 quaternion: [1.0, 0.0, 0.0, 0.0],
             })
             .collect();
-        assert_eq!(position_at(&traj, 2.5), Some([0.25, -1.0]));
-        assert_eq!(position_at(&traj, -3.0), Some([0.0, -1.0]));
+        assert_eq!(position_at(&traj, 2.5, 1.0), Some([0.25, -1.0]));
+        assert_eq!(position_at(&traj, -3.0, 1.0), Some([0.0, -1.0]));
+        // Across a gap longer than the limit nothing is interpolated.
+        assert_eq!(position_at(&traj, 2.5, 0.05), None);
+        assert_eq!(max_step(&traj), MIN_GAP);
         let cloud = PointCloud {
             xyz: vec![[0.0, 0.0, 1.0]; 2],
             time: vec![2.5, 9.0],
