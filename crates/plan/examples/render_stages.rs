@@ -4,7 +4,8 @@
 //! LEVEL OUT_DIR [--no-poses] [--mobile] [--view X0,Y0,X1,Y1]`, or on a scan file with
 //! `-- --input FILE [--poses FILE] LEVEL OUT_DIR [--no-poses] [--view ...]` (no truth drawn; the
 //! view is in the cloud's local frame). It writes `labels.svg` (after labeling), `cleaned.svg` (after
-//! cleanup) and `fitted.svg` (the final polygons over the cleaned labels, truth in red).
+//! cleanup) and `fitted.svg` (the final polygons over the cleaned labels, truth in red). Scanners the
+//! cloud does not give are estimated first, as the plan does (open-space pseudo-viewpoints excepted).
 //! Triangles: inside light blue, outside white, forced inside dark blue, forced outside grey.
 //!
 //! It also writes `plan.png`: the plan the pipeline makes (`asbuilt_plan::plan`, derived
@@ -161,6 +162,11 @@ fn main() {
     }
     // The stages below run with the parameters the plan derived from the point spacing.
     let (params, _) = params.derive(SpacingProbe::of(&cloud.xyz).spacing());
+    // Scanners the cloud does not give are estimated as the plan does (pseudo-viewpoints in
+    // open space excepted: they come after the samples).
+    if let Some(v) = asbuilt_plan::viewpoints::estimate(&cloud, &params.viewpoints).viewpoints {
+        cloud.viewpoints = v;
+    }
     let mut samples = sample_walls(&cloud, story, &params.samples, &Cancel::never()).unwrap();
     smooth_samples(
         &mut samples,
