@@ -48,8 +48,6 @@ enum Kind<'a> {
         /// Consecutive samples farther apart than this are a gap in the path (see
         /// [`max_step`]): nothing is interpolated across it.
         max_step: f64,
-        /// See [`max_overrun`].
-        max_overrun: f64,
     },
 }
 
@@ -114,7 +112,6 @@ impl<'a> Views<'a> {
                 let (viewpoints, listed_t) = list_along(&inside, TRAJECTORY_SPACING);
                 let kind = Kind::Trajectory {
                     max_step: max_step(&traj),
-                    max_overrun: max_overrun(&traj),
                     traj,
                     listed_t,
                 };
@@ -163,11 +160,10 @@ impl<'a> Views<'a> {
                 traj,
                 listed_t,
                 max_step,
-                max_overrun,
             } => {
                 let t = *times.get(k)?;
                 Some((
-                    position_at(traj, t, *max_step, *max_overrun)?,
+                    position_at(traj, t, *max_step)?,
                     nearest_in_time(listed_t, t),
                 ))
             }
@@ -366,18 +362,6 @@ fn max_step(traj: &[TrajectorySample]) -> f64 {
     (GAP_STEPS * median(&mut steps)).max(MIN_GAP)
 }
 
-/// How long before the first sample or after the last a point is still seen from that end:
-/// [`GAP_STEPS`] times the median time between samples. Where an estimated path starts late
-/// the scanner stood elsewhere before.
-fn max_overrun(traj: &[TrajectorySample]) -> f64 {
-    let mut dts: Vec<f64> = traj
-        .windows(2)
-        .map(|w| w[1].t - w[0].t)
-        .filter(|d| d.is_finite())
-        .collect();
-    GAP_STEPS * median(&mut dts)
-}
-
 /// The (upper) median, infinite for none.
 fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
@@ -397,17 +381,21 @@ fn dist3(a: [f64; 3], b: [f64; 3]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
 
-/// The trajectory's x, y at time `t`, interpolated linearly and clamped to its ends; `None`
-/// between two samples more than `max_step` apart, or more than `max_overrun` past an end.
-fn position_at(traj: &[TrajectorySample], t: f64, max_step: f64, max_overrun: f64) -> Option<P2> {
+/// The trajectory's x, y at time `t`, interpolated linearly; `None` between two samples more
+/// than `max_step` apart, and before the first or after the last. An estimated path starts and
+/// ends where the first and last windows were located, and the scanner was elsewhere before
+/// and after: seen from the path's end, the far walls of a corridor's end cut a shaft beside it
+/// (sparse mobile office without trajectory, level 0: IoU 0.9527 with the ends held, 0.9636).
+fn position_at(traj: &[TrajectorySample], t: f64, max_step: f64) -> Option<P2> {
     if !t.is_finite() {
         return None;
     }
     let k = traj.partition_point(|s| s.t <= t);
     let xy = |s: &TrajectorySample| [s.position[0], s.position[1]];
     match k {
-        0 => traj.first().filter(|s| s.t - t <= max_overrun).map(xy),
-        k if k == traj.len() => traj.last().filter(|s| t - s.t <= max_overrun).map(xy),
+        // At the last sample's time exactly, the last sample.
+        k if k == traj.len() => traj.last().filter(|s| s.t == t).map(xy),
+        0 => None,
         k => {
             let (a, b) = (&traj[k - 1], &traj[k]);
             if dist3(a.position, b.position) > max_step {
@@ -524,14 +512,15 @@ mod tests {
                 quaternion: [1.0, 0.0, 0.0, 0.0],
             })
             .collect();
-        assert_eq!(position_at(&traj, 2.5, 1.0, 3.0), Some([0.25, -1.0]));
-        assert_eq!(position_at(&traj, -3.0, 1.0, 3.0), Some([0.0, -1.0]));
+        assert_eq!(position_at(&traj, 2.5, 1.0), Some([0.25, -1.0]));
+        assert_eq!(position_at(&traj, 0.0, 1.0), Some([0.0, -1.0]));
+        assert_eq!(position_at(&traj, 10.0, 1.0), Some([1.0, -1.0]));
+        // Before the start and after the end nothing is assumed.
+        assert_eq!(position_at(&traj, -0.5, 1.0), None);
+        assert_eq!(position_at(&traj, 10.5, 1.0), None);
         // Across a gap longer than the limit nothing is interpolated.
-        assert_eq!(position_at(&traj, 2.5, 0.05, 3.0), None);
+        assert_eq!(position_at(&traj, 2.5, 0.05), None);
         assert_eq!(max_step(&traj), MIN_GAP);
-        // Up to three steps' time before the start, and no further.
-        assert_eq!(max_overrun(&traj), 3.0);
-        assert_eq!(position_at(&traj, -3.5, 1.0, 3.0), None);
         let cloud = PointCloud {
             xyz: vec![[0.0, 0.0, 1.0]; 2],
             time: vec![2.5, 9.0],
