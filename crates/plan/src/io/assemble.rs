@@ -224,14 +224,17 @@ impl LocalSlots {
     }
 
     /// The local slot of scan `id`; `None` once the piece names more scans than slots hold.
-    #[inline]
+    #[inline(always)]
     pub fn slot(&mut self, id: u32) -> Option<u16> {
         // Scans come in runs: the last one answers almost every point.
-        if let Some((last_id, slot)) = self.last {
-            if last_id == id {
-                return Some(slot);
-            }
+        match self.last {
+            Some((last_id, slot)) if last_id == id => Some(slot),
+            _ => self.look_up(id),
         }
+    }
+
+    #[inline(never)]
+    fn look_up(&mut self, id: u32) -> Option<u16> {
         let slot = match self.map.get(&id) {
             Some(&slot) => slot,
             None => {
