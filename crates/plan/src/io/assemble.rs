@@ -206,6 +206,136 @@ impl CloudBuilder {
     }
 }
 
+/// Scan slots of one piece of a file decoded on a thread of its own, in order of first
+/// appearance there; merged into the cloud's slots once every earlier piece is in.
+pub(crate) struct LocalSlots {
+    pub ids: Vec<u32>,
+    map: HashMap<u32, u16>,
+    last: Option<(u32, u16)>,
+}
+
+impl LocalSlots {
+    pub fn new() -> Self {
+        LocalSlots {
+            ids: Vec::new(),
+            map: HashMap::new(),
+            last: None,
+        }
+    }
+
+    /// The local slot of scan `id`; `None` once the piece names more scans than slots hold.
+    #[inline(always)]
+    pub fn slot(&mut self, id: u32) -> Option<u16> {
+        // Scans come in runs: the last one answers almost every point.
+        match self.last {
+            Some((last_id, slot)) if last_id == id => Some(slot),
+            _ => self.look_up(id),
+        }
+    }
+
+    #[inline(never)]
+    fn look_up(&mut self, id: u32) -> Option<u16> {
+        let slot = match self.map.get(&id) {
+            Some(&slot) => slot,
+            None => {
+                let n = self.ids.len();
+                if n >= MAX_SCANS {
+                    return None;
+                }
+                self.ids.push(id);
+                self.map.insert(id, n as u16);
+                n as u16
+            }
+        };
+        self.last = Some((id, slot));
+        Some(slot)
+    }
+}
+
+/// One piece's stretch of the cloud's arrays. `scan` and `time` are empty when the cloud has
+/// none.
+pub(crate) struct Out<'a> {
+    pub xyz: &'a mut [[f32; 3]],
+    pub scan: &'a mut [u16],
+    pub time: &'a mut [f64],
+}
+
+impl<'a> Out<'a> {
+    /// Points `at..at + n` of the cloud's arrays.
+    pub fn of(c: &'a mut PointCloud, at: usize, n: usize) -> Out<'a> {
+        let part = |len: usize| if len == 0 { 0..0 } else { at..at + n };
+        let (scan, time) = (part(c.scan.len()), part(c.time.len()));
+        Out {
+            xyz: &mut c.xyz[at..at + n],
+            scan: &mut c.scan[scan],
+            time: &mut c.time[time],
+        }
+    }
+}
+
+/// Cuts the arrays (`scan` and `time` as long as `xyz`, or empty) into pieces of `per` points,
+/// the last one shorter.
+pub(crate) fn split_out<'a>(
+    mut xyz: &'a mut [[f32; 3]],
+    mut scan: &'a mut [u16],
+    mut time: &'a mut [f64],
+    per: usize,
+) -> Vec<Out<'a>> {
+    let per = per.max(1);
+    let mut outs = Vec::with_capacity(xyz.len().div_ceil(per));
+    while !xyz.is_empty() {
+        let n = per.min(xyz.len());
+        outs.push(Out {
+            xyz: take_front(&mut xyz, n),
+            scan: take_front(&mut scan, n),
+            time: take_front(&mut time, n),
+        });
+    }
+    outs
+}
+
+/// The first `n` items of `a` (all of them when fewer), leaving `a` the rest.
+fn take_front<'a, T>(a: &mut &'a mut [T], n: usize) -> &'a mut [T] {
+    let k = n.min(a.len());
+    let (head, rest) = std::mem::take(a).split_at_mut(k);
+    *a = rest;
+    head
+}
+
+/// After pieces of `per` points each wrote their `kept` points at the start of their stretch,
+/// renumbers each piece's scan slots with its `map` (local slot -> cloud slot) and closes the
+/// gaps skipped points left. Returns the points kept in all.
+pub(crate) fn settle(out: Out<'_>, per: usize, pieces: &[(usize, Vec<u16>)]) -> usize {
+    use rayon::prelude::*;
+    let identity = |map: &[u16]| map.iter().enumerate().all(|(i, &s)| usize::from(s) == i);
+    if !out.scan.is_empty() && pieces.iter().any(|(_, map)| !identity(map)) {
+        out.scan
+            .par_chunks_mut(per.max(1))
+            .zip(pieces.par_iter())
+            .for_each(|(scan, (kept, map))| {
+                for s in &mut scan[..*kept] {
+                    *s = map[usize::from(*s)];
+                }
+            });
+    }
+    let mut to = 0;
+    for (k, (kept, _)) in pieces.iter().enumerate() {
+        let from = k * per;
+        if from != to {
+            // Only where points were skipped: rare, so a serial move is fine.
+            out.xyz.copy_within(from..from + kept, to);
+            if !out.scan.is_empty() {
+                out.scan.copy_within(from..from + kept, to);
+            }
+            if !out.time.is_empty() {
+                out.time.copy_within(from..from + kept, to);
+            }
+        }
+        to += kept;
+    }
+    to
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -13,9 +13,9 @@ mod chunks;
 
 pub use chunks::LasChunks;
 
-use super::assemble::CloudBuilder;
+use super::assemble::{settle, split_out, CloudBuilder, LocalSlots, Out};
 use super::{ReadError, ReadOptions};
-use crate::cloud::PointCloud;
+use crate::cloud::{to_local, PointCloud};
 
 /// Points decoded per chunk: small enough to stay in cache, large enough to amortise calls.
 const CHUNK: u64 = 64 * 1024;
@@ -59,9 +59,11 @@ where
     if parallel && plan.laz_chunk.is_some() {
         // The decoder's threads are the pool's: run the whole read there.
         super::pool::install(|| decode_las(source, len, name, options, &plan, true))
-    } else if parallel && plan.format == "las" && threads > 1 {
+    } else if parallel && plan.format == "las" {
         let group = GROUP_PER_THREAD * threads;
-        super::pool::install(|| decode_las_groups(source, name, options, &plan, CHUNK, group))
+        super::pool::install(|| {
+            decode_las_direct(source, name, options, &plan, CHUNK, group, threads)
+        })
     } else {
         decode_las(source, len, name, options, &plan, false)
     }
@@ -186,73 +188,217 @@ fn decode_batch(
     Ok(outside)
 }
 
-/// Uncompressed LAS on several threads: batches are read exactly as [`decode_las`] reads
-/// them, `group` at a time, and each group's batches are decoded in parallel into parts that
-/// are then appended in order, so the cloud and every error are those of the serial read.
-fn decode_las_groups<R>(
-    source: R,
+/// Uncompressed LAS decoded straight from the file's bytes into the cloud's arrays: batches
+/// of `batch` points are read as [`decode_las`] reads them, `group` at a time (the next group
+/// read while this one is decoded when `parts` > 1), and each group is decoded in `parts`
+/// pieces, with exactly the serial read's points, slots, counts and errors.
+fn decode_las_direct<R>(
+    mut source: R,
     name: &str,
     options: &ReadOptions,
     plan: &HeaderCheck,
     batch: u64,
     group: usize,
+    parts: usize,
 ) -> Result<PointCloud, ReadError>
 where
-    R: Read + Seek + Send + Sync + 'static,
+    R: Read + Seek + Send,
 {
     let fname = plan.format;
-    let err = |e: las::Error| ReadError::named(name, fname, e.to_string());
-    let mut reader = open_reader(source, plan, false).map_err(err)?;
-    let header = reader.header().clone();
+    // The header as the `las` reader parses it; that leaves the source at the point data.
+    let header =
+        las::Header::new(&mut source).map_err(|e| ReadError::named(name, fname, e.to_string()))?;
     let count = header.number_of_points();
-    // The header check confirmed the count against the file's size: reserve it exactly.
-    let mut b = CloudBuilder::new(fname, count as usize, None, options.keep_time);
+    let layout = Layout::new(&header, options.keep_time);
+    // The header check confirmed the count against the file's size.
+    let n = count as usize;
+    let mut b = CloudBuilder::new(fname, 0, None, options.keep_time);
+    let c = b.cloud_mut();
+    c.xyz = vec![[0.0; 3]; n];
+    c.scan = vec![0; n];
+    c.time = vec![0.0; if layout.time.is_some() { n } else { 0 }];
     let guard = BoundsGuard::new(&header);
-    let mut pds: Vec<PointData> = (0..group.max(1))
-        .map(|_| PointDataBuilder::new().for_header(&header).build())
-        .collect();
-    let mut done = 0u64;
+    let (batch, size) = (batch.max(1) as usize, layout.size);
+    let block = batch * group.max(1);
+    let mut written = 0;
     let mut outside = 0u64;
-    loop {
-        let start = done;
-        let mut filled = 0;
-        for pd in &mut pds {
-            let n = fill(&mut reader, batch, pd, done, count, name, fname)?;
-            if n == 0 {
-                break;
+    super::pool::read_ahead(
+        &mut source,
+        n.div_ceil(block),
+        parts > 1,
+        |reader, k, buf| {
+            buf.resize((n - k * block).min(block) * size, 0);
+            for (j, part) in buf.chunks_mut(batch * size).enumerate() {
+                reader.read_exact(part).map_err(|e| (j, e))?;
             }
-            done += n;
-            filled += 1;
-        }
-        if filled == 0 {
-            break;
-        }
-        let read = &pds[..filled];
-        // Batch k starts at point `start + k * batch`: every batch but the last is full.
-        let first_point = |k: usize| start + k as u64 * batch;
-        // The first finite point fixes the local frame every part needs.
-        let mut k0 = 0;
-        while !b.has_origin() && k0 < filled {
-            outside += decode_batch(&mut b, &read[k0], &guard, first_point(k0), name, fname)?;
-            k0 += 1;
-        }
-        let parts: Vec<Result<(CloudBuilder, u64), ReadError>> = read[k0..]
-            .par_iter()
-            .enumerate()
-            .map(|(k, pd)| {
-                let mut part = b.part(pd.len());
-                let o = decode_batch(&mut part, pd, &guard, first_point(k0 + k), name, fname)?;
-                Ok((part, o))
+            Ok(())
+        },
+        |k, buf, filled| {
+            // Batches before a failed one are decoded first, as the serial read does.
+            let whole = match &filled {
+                Ok(()) => buf.len(),
+                Err((j, _)) => j * batch * size,
+            };
+            if whole > 0 {
+                let (kept, out) =
+                    decode_las_block(&mut b, &layout, &guard, &buf[..whole], written, parts)
+                        .map_err(|why| ReadError::named(name, fname, why))?;
+                written += kept;
+                outside += out;
+            }
+            filled.map_err(|(j, e)| {
+                let done = (k * block + j * batch) as u64;
+                let end = (done + batch as u64).min(count).max(done + 1) - 1;
+                ReadError::at(
+                    name,
+                    fname,
+                    las::Error::from(e).to_string(),
+                    format!("points {done} to {end} of {count}"),
+                )
             })
-            .collect();
-        for part in parts {
-            let (part, o) = part?;
-            b.absorb(&part)
-                .map_err(|why| ReadError::named(name, fname, why))?;
-            outside += o;
+        },
+    )?;
+    let c = b.cloud_mut();
+    c.xyz.truncate(written);
+    c.scan.truncate(written);
+    c.time.truncate(written);
+    finish_las(b, &header, count, count, outside, name, fname)
+}
+
+/// Where a point record's fields are: x, y, z are the first three `i32`s of every format.
+struct Layout {
+    size: usize,
+    scan: usize,
+    time: Option<usize>,
+    transforms: las::Vector<las::Transform>,
+}
+
+impl Layout {
+    /// The record layout of `header`'s point format; the time only when kept.
+    fn new(header: &las::Header, keep_time: bool) -> Layout {
+        let f = header.point_format();
+        // Formats 6 to 10 put a byte more of flags and a wider scan angle first.
+        let (scan, time) = if f.is_extended { (20, 22) } else { (18, 20) };
+        Layout {
+            size: usize::from(f.len()),
+            scan,
+            time: (f.has_gps_time && keep_time).then_some(time),
+            transforms: *header.transforms(),
         }
     }
-    finish_las(b, &header, done, count, outside, name, fname)
+}
+
+/// Decodes whole records into the builder's arrays from point `at` on, in `parts` pieces;
+/// returns the points kept and how many lie outside the header's bounds.
+fn decode_las_block(
+    b: &mut CloudBuilder,
+    layout: &Layout,
+    guard: &BoundsGuard,
+    buf: &[u8],
+    at: usize,
+    parts: usize,
+) -> Result<(usize, u64), String> {
+    let size = layout.size;
+    let n = buf.len() / size;
+    // The first finite point fixes the local frame every piece needs.
+    if !b.has_origin() {
+        if let Some(p) = buf.chunks_exact(size).map(|r| layout.point(r)).find(finite) {
+            b.fix_origin(p);
+        }
+    }
+    let origin = b.origin().unwrap_or_default();
+    let per = n.div_ceil(parts.max(1)).max(1);
+    let out = Out::of(b.cloud_mut(), at, n);
+    let pieces: Vec<LasPiece> = if n <= per {
+        vec![decode_las_piece(layout, guard, buf, origin, out)]
+    } else {
+        split_out(out.xyz, out.scan, out.time, per)
+            .into_par_iter()
+            .zip(buf.par_chunks(per * size))
+            .map(|(out, recs)| decode_las_piece(layout, guard, recs, origin, out))
+            .collect()
+    };
+    // Pieces' scans take the cloud's slots in order, as a serial read would give them.
+    let mut maps = Vec::with_capacity(pieces.len());
+    for piece in &pieces {
+        let map = piece.slots.ids.iter().map(|&id| b.scan_slot(id));
+        maps.push((piece.kept, map.collect::<Result<Vec<u16>, String>>()?));
+    }
+    b.skip(pieces.iter().map(|p| p.skipped).sum());
+    let kept = settle(Out::of(b.cloud_mut(), at, n), per, &maps);
+    Ok((kept, pieces.iter().map(|p| p.outside).sum()))
+}
+
+impl Layout {
+    /// A record's point in world coordinates, as the `las` crate computes it.
+    #[inline(always)]
+    fn point(&self, rec: &[u8]) -> [f64; 3] {
+        let t = &self.transforms;
+        [
+            t.x.direct(i32::from_le_bytes(take(rec, 0))),
+            t.y.direct(i32::from_le_bytes(take(rec, 4))),
+            t.z.direct(i32::from_le_bytes(take(rec, 8))),
+        ]
+    }
+}
+
+/// `N` bytes of a record from offset `o`: one bounds check and one load, not one a byte.
+#[inline(always)]
+fn take<const N: usize>(rec: &[u8], o: usize) -> [u8; N] {
+    let mut a = [0; N];
+    a.copy_from_slice(&rec[o..o + N]);
+    a
+}
+
+#[inline(always)]
+fn finite(p: &[f64; 3]) -> bool {
+    p[0].is_finite() && p[1].is_finite() && p[2].is_finite()
+}
+
+/// What a piece decoded.
+struct LasPiece {
+    kept: usize,
+    skipped: u64,
+    outside: u64,
+    slots: LocalSlots,
+}
+
+/// Decodes the records `recs` into the start of `out` as [`decode_batch`] pushes them: every
+/// record's scan takes a slot and is checked against the bounds; non-finite points are skipped.
+fn decode_las_piece(
+    layout: &Layout,
+    guard: &BoundsGuard,
+    recs: &[u8],
+    origin: [f64; 3],
+    out: Out<'_>,
+) -> LasPiece {
+    let mut piece = LasPiece {
+        kept: 0,
+        skipped: 0,
+        outside: 0,
+        slots: LocalSlots::new(),
+    };
+    let (ps, mut w) = (layout.scan, 0);
+    for rec in recs.chunks_exact(layout.size) {
+        let p = layout.point(rec);
+        // Stale bounds are common in plain LAS: such points are kept and counted.
+        piece.outside += u64::from(!guard.contains(p));
+        let id = u16::from_le_bytes(take(rec, ps));
+        // A `u16` id never runs out of slots.
+        let slot = piece.slots.slot(u32::from(id)).unwrap_or_default();
+        if !finite(&p) {
+            piece.skipped += 1;
+            continue;
+        }
+        out.xyz[w] = to_local(origin, p);
+        out.scan[w] = slot;
+        if let Some(g) = layout.time {
+            out.time[w] = f64::from_le_bytes(take(rec, g));
+        }
+        w += 1;
+    }
+    piece.kept = w;
+    piece
 }
 
 /// Checks every point came, and records the CRS and what was read.
@@ -736,7 +882,7 @@ impl BoundsGuard {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     fn contains(&self, p: [f64; 3]) -> bool {
         !self.active || (0..3).all(|k| p[k] >= self.lo[k] && p[k] <= self.hi[k])
     }
@@ -839,38 +985,48 @@ mod tests {
         crate::io::export::write_las(&path, &c, false).unwrap();
         let bytes = std::fs::read(&path).unwrap();
         let len = bytes.len() as u64;
-        let serial = read_las_with(
-            Cursor::new(bytes.clone()),
-            len,
-            "t.las",
-            &ReadOptions::default(),
-            false,
-        )
-        .unwrap();
-        assert_eq!(serial.len(), n);
-        let bits = |c: &PointCloud| -> Vec<[u32; 3]> {
-            c.xyz.iter().map(|p| p.map(f32::to_bits)).collect()
-        };
-        let groups = |batch: u64, group: usize| {
-            let mut source = Cursor::new(bytes.clone());
-            let plan = check_header(&mut source, len, "t.las").unwrap();
-            decode_las_groups(
-                source,
+        // The same points with an x scale so large that most overflow to infinity: skipped
+        // points leave gaps for the pieces to close.
+        let mut huge = bytes.clone();
+        huge[131..139].copy_from_slice(&1e305f64.to_le_bytes());
+        for (bytes, skips) in [(&bytes, false), (&huge, true)] {
+            let serial = read_las_with(
+                Cursor::new(bytes.clone()),
+                len,
                 "t.las",
                 &ReadOptions::default(),
-                &plan,
-                batch,
-                group,
+                false,
             )
-        };
-        for (batch, group) in [(13, 3), (1_000, 8), (4_099, 5), (CHUNK, 4), (n as u64, 2)] {
-            let parallel = groups(batch, group).unwrap();
-            assert!(bits(&serial) == bits(&parallel), "points differ");
-            assert_eq!(serial.scan, parallel.scan);
-            assert_eq!(serial.scan_ids, parallel.scan_ids);
-            assert_eq!(serial.time, parallel.time);
-            assert_eq!(serial.origin, parallel.origin);
-            assert_eq!(serial.source, parallel.source);
+            .unwrap();
+            let skipped = serial.source.skipped as usize;
+            assert_eq!((skipped > 0, serial.len()), (skips, n - skipped));
+            assert!(serial.len() > 1_000, "some points are still kept");
+            let bits = |c: &PointCloud| -> Vec<[u32; 3]> {
+                c.xyz.iter().map(|p| p.map(f32::to_bits)).collect()
+            };
+            let direct = |batch: u64, group: usize, parts: usize| {
+                let mut source = Cursor::new(bytes.clone());
+                let plan = check_header(&mut source, len, "t.las").unwrap();
+                let options = ReadOptions::default();
+                decode_las_direct(source, "t.las", &options, &plan, batch, group, parts)
+            };
+            let cases = [
+                (13, 3, 2),
+                (1_000, 8, 3),
+                (4_099, 5, 1),
+                (CHUNK, 4, 2),
+                (CHUNK, 1, 1),
+                (n as u64, 2, 2),
+            ];
+            for (batch, group, parts) in cases {
+                let parallel = direct(batch, group, parts).unwrap();
+                assert!(bits(&serial) == bits(&parallel), "points differ");
+                assert_eq!(serial.scan, parallel.scan);
+                assert_eq!(serial.scan_ids, parallel.scan_ids);
+                assert_eq!(serial.time, parallel.time);
+                assert_eq!(serial.origin, parallel.origin);
+                assert_eq!(serial.source, parallel.source);
+            }
         }
         // A read that fails part way names the same points whether decoded in parallel or not.
         let failing = || Failing {
@@ -885,11 +1041,14 @@ mod tests {
             "{serial}"
         );
         let plan = check_header(&mut failing(), len, "t.las").unwrap();
-        let parallel =
-            decode_las_groups(failing(), "t.las", &ReadOptions::default(), &plan, CHUNK, 3)
-                .unwrap_err()
-                .to_string();
-        assert_eq!(parallel, serial);
+        for (group, parts) in [(3, 2), (1, 1), (8, 3)] {
+            let options = ReadOptions::default();
+            let parallel =
+                decode_las_direct(failing(), "t.las", &options, &plan, CHUNK, group, parts)
+                    .unwrap_err()
+                    .to_string();
+            assert_eq!(parallel, serial);
+        }
     }
 
     #[test]

@@ -19,6 +19,7 @@ use rayon::prelude::*;
 
 use super::ReadError;
 use crate::cloud::{local_origin, to_local, PointCloud, SourceInfo};
+use crate::io::assemble::{settle, split_out, LocalSlots, Out};
 use header::{describe, read_header, vertices, Element, Header, Kind, Layout, Scalar};
 
 pub use chunks::PlyChunks;
@@ -59,31 +60,39 @@ pub(crate) fn declared_vertices(mut reader: impl BufRead) -> Option<u64> {
 
 /// Reads PLY from any source of `len` bytes (a file, an upload in memory); `name` is used in
 /// errors. The source is read once, front to back, through a buffer.
-pub fn read_ply_from<R: Read>(source: R, len: u64, name: &str) -> Result<PointCloud, ReadError> {
+pub fn read_ply_from<R: Read + Send>(
+    source: R,
+    len: u64,
+    name: &str,
+) -> Result<PointCloud, ReadError> {
     let parts = super::pool::threads();
     let split = Split {
         block: CHUNK_VERTICES * CHUNKS_PER_THREAD * parts,
         parts,
+        direct: true,
     };
     read_ply_split(source, len, name, split)
 }
 
-/// How binary vertices are read: `block` records at a time, each block decoded in `parts`.
+/// How binary vertices are read: `block` records at a time, each block decoded in `parts`;
+/// with `direct`, straight into the cloud's arrays, the next block read meanwhile.
 #[derive(Debug, Clone, Copy)]
 struct Split {
     block: usize,
     parts: usize,
+    direct: bool,
 }
 
 impl Split {
-    /// A chunk at a time, on the calling thread.
+    /// A chunk at a time, on the calling thread, through the point sink.
     const SERIAL: Split = Split {
         block: CHUNK_VERTICES,
         parts: 1,
+        direct: false,
     };
 }
 
-fn read_ply_split<R: Read>(
+fn read_ply_split<R: Read + Send>(
     source: R,
     len: u64,
     name: &str,
@@ -110,6 +119,19 @@ fn read_ply_split<R: Read>(
     }
     body.read_vertices(vertex, layout, &mut sink)?;
     Ok(sink.finish(describe(&header, vertex)))
+}
+
+/// A scan index read as a number, as a scan id; an error unless a whole number in range.
+#[inline]
+fn scan_id(s: f64) -> Result<u32, String> {
+    // In range, a whole number is one its integer cast gives back (cheaper than `fract`).
+    if !(s >= 0.0 && s <= f64::from(u32::MAX) && f64::from(s as u32) == s) {
+        return Err(format!(
+            "scan index {s} is not a whole number from 0 to {}",
+            u32::MAX
+        ));
+    }
+    Ok(s as u32)
 }
 
 /// Accumulates decoded vertices into the cloud's compact arrays.
@@ -160,14 +182,7 @@ impl Sink {
     }
 
     fn slot(&mut self, s: f64) -> Result<u16, String> {
-        // In range, a whole number is one its integer cast gives back (cheaper than `fract`).
-        if !(s >= 0.0 && s <= f64::from(u32::MAX) && f64::from(s as u32) == s) {
-            return Err(format!(
-                "scan index {s} is not a whole number from 0 to {}",
-                u32::MAX
-            ));
-        }
-        self.slot_of_id(s as u32)
+        self.slot_of_id(scan_id(s)?)
     }
 
     /// The slot of scan index `id`, assigned in order of first appearance.
@@ -244,6 +259,14 @@ impl Sink {
         true
     }
 
+    /// Forgets the scans first named after the first `known`.
+    fn forget_scans(&mut self, known: usize) {
+        for id in self.cloud.scan_ids.drain(known..) {
+            self.slots.remove(&id);
+        }
+        self.last = None;
+    }
+
     fn finish(mut self, details: String) -> PointCloud {
         self.cloud.origin = self.origin.unwrap_or_default();
         // Only worth a reallocation when many points were skipped.
@@ -275,20 +298,15 @@ struct Body<'a, R: BufRead> {
     split: Split,
 }
 
-impl<R: BufRead> Body<'_, R> {
+impl<R: BufRead + Send> Body<'_, R> {
     fn big(&self) -> bool {
         self.header.encoding == Encoding::BinaryBigEndian
     }
 
     fn fill(&mut self, buf: &mut [u8], what: &str) -> Result<(), ReadError> {
-        self.reader.read_exact(buf).map_err(|e| {
-            let why = if e.kind() == std::io::ErrorKind::UnexpectedEof {
-                format!("the file is truncated: it ends inside {what}")
-            } else {
-                e.to_string()
-            };
-            invalid(self.path, why, Some(format!("byte offset {}", self.offset)))
-        })?;
+        self.reader
+            .read_exact(buf)
+            .map_err(|e| fill_error(self.path, e, what, self.offset))?;
         self.offset += buf.len() as u64;
         Ok(())
     }
@@ -430,6 +448,9 @@ impl<R: BufRead> Body<'_, R> {
         sink: &mut Sink,
     ) -> Result<(), ReadError> {
         let records = Records::new(vertex, size, layout, self.big());
+        if self.split.direct && sink.cloud.xyz.is_empty() && vertex.count <= MAX_RESERVE as u64 {
+            return self.read_fixed_direct(vertex, &records, sink);
+        }
         let block = self.split.block.max(1);
         let mut buf = vec![0u8; size * block.min(vertex.count as usize).max(1)];
         let mut done = 0u64;
@@ -449,6 +470,60 @@ impl<R: BufRead> Body<'_, R> {
                 })?;
             done += n as u64;
         }
+        Ok(())
+    }
+
+    /// The fixed-size records decoded in parallel pieces straight into the cloud's arrays,
+    /// sized to the header's count (checked against the file's size) and zeroed lazily, so
+    /// pages are first touched by the thread that fills them. The next block is read while
+    /// this one is decoded.
+    fn read_fixed_direct(
+        &mut self,
+        vertex: &Element,
+        records: &Records,
+        sink: &mut Sink,
+    ) -> Result<(), ReadError> {
+        let count = vertex.count as usize;
+        let size = records.size;
+        let block = self.split.block.max(1);
+        let parts = self.split.parts.max(1);
+        let c = &mut sink.cloud;
+        c.xyz = vec![[0.0; 3]; count];
+        c.scan = vec![0; if records.scan.is_some() { count } else { 0 }];
+        c.time = vec![0.0; if records.time.is_some() { count } else { 0 }];
+        let (path, base) = (self.path, self.offset);
+        let mut written = 0;
+        crate::io::pool::read_ahead(
+            &mut *self.reader,
+            count.div_ceil(block),
+            parts > 1,
+            |reader, k, buf| {
+                buf.resize((count - k * block).min(block) * size, 0);
+                reader.read_exact(buf)
+            },
+            |k, buf, filled| {
+                let done = (k * block) as u64;
+                let start = base + done * size as u64;
+                filled.map_err(|e| {
+                    let e = fill_error(path, e, "the vertex data", start);
+                    truncated_vertices(e, done, vertex.count, block)
+                })?;
+                records
+                    .decode_direct(sink, &mut written, buf, parts)
+                    .map_err(|(i, why)| {
+                        invalid(
+                            path,
+                            format!("vertex {}: {why}", done + i as u64),
+                            Some(format!("byte offset {}", start + (i * size) as u64)),
+                        )
+                    })
+            },
+        )?;
+        self.offset = base + (count * size) as u64;
+        let c = &mut sink.cloud;
+        c.xyz.truncate(written);
+        c.scan.truncate(written);
+        c.time.truncate(written);
         Ok(())
     }
 
@@ -784,6 +859,123 @@ impl Records {
         Ok(())
     }
 
+    /// Decodes whole records straight into the cloud's arrays from point `*written` on, in
+    /// `parts` pieces on rayon's threads, with exactly [`Self::decode`]'s result. Each piece
+    /// writes its kept points at the start of its own stretch with slots of its own; the
+    /// stretches are then renumbered and closed up in order. A block where a piece fails, or
+    /// whose scans do not fit, is decoded again serially, so an error is the serial one.
+    fn decode_direct(
+        &self,
+        sink: &mut Sink,
+        written: &mut usize,
+        buf: &[u8],
+        parts: usize,
+    ) -> Decoded {
+        match fast_layout(self.xyz, self.scan, self.time, self.big) {
+            Some(scan) => self.decode_direct_with(
+                &F32Fields {
+                    xyz: self.xyz.map(|f| f.0),
+                    scan,
+                },
+                sink,
+                written,
+                buf,
+                parts,
+            ),
+            None => self.decode_direct_with(self, sink, written, buf, parts),
+        }
+    }
+
+    fn decode_direct_with<D: Fields>(
+        &self,
+        fields: &D,
+        sink: &mut Sink,
+        written: &mut usize,
+        buf: &[u8],
+        parts: usize,
+    ) -> Decoded {
+        let size = self.size;
+        let n = buf.len() / size;
+        // The first kept point fixes the local frame every piece needs; without one, every
+        // point of the block is skipped and the frame is never used.
+        if sink.origin.is_none() {
+            sink.origin = buf
+                .chunks_exact(size)
+                .map(|rec| (fields.point(rec), fields.time(rec)))
+                .find(|(p, t)| kept(p, *t))
+                .map(|(p, _)| local_origin(Some(p)));
+        }
+        let origin = sink.origin.unwrap_or_default();
+        let at = *written;
+        let per = n.div_ceil(parts.max(1)).max(1);
+        let out = Out::of(&mut sink.cloud, at, n);
+        let pieces: Vec<Piece> = if n <= per {
+            vec![decode_piece(fields, buf, size, origin, out)]
+        } else {
+            split_out(out.xyz, out.scan, out.time, per)
+                .into_par_iter()
+                .zip(buf.par_chunks(per * size))
+                .map(|(out, recs)| decode_piece(fields, recs, size, origin, out))
+                .collect()
+        };
+        // Pieces' scans take the cloud's slots in order, as a serial read would give them.
+        let known = sink.cloud.scan_ids.len();
+        let mut maps = Vec::with_capacity(pieces.len());
+        for piece in &pieces {
+            let map = match piece.failed {
+                false => piece
+                    .slots
+                    .ids
+                    .iter()
+                    .map(|&id| sink.slot_of_id(id))
+                    .collect(),
+                true => Err(String::new()),
+            };
+            match map {
+                Ok(map) => maps.push((piece.kept, map)),
+                Err(_) => {
+                    sink.forget_scans(known);
+                    return self.decode_block_serially(sink, written, buf);
+                }
+            }
+        }
+        sink.skipped += pieces.iter().map(|p| p.skipped).sum::<u64>();
+        *written += settle(Out::of(&mut sink.cloud, at, n), per, &maps);
+        Ok(())
+    }
+
+    /// [`Self::decode`] of a block into a sink of its own that starts from this one's scans
+    /// and frame, copied in when it succeeds: the exact serial result or error.
+    fn decode_block_serially(&self, sink: &mut Sink, written: &mut usize, buf: &[u8]) -> Decoded {
+        let mut part = Sink {
+            cloud: PointCloud {
+                scan_ids: sink.cloud.scan_ids.clone(),
+                ..Default::default()
+            },
+            origin: sink.origin,
+            slots: sink.slots.clone(),
+            last: None,
+            skipped: 0,
+        };
+        self.decode(&mut part, buf)?;
+        let (at, n) = (*written, part.cloud.xyz.len());
+        let c = &mut sink.cloud;
+        c.xyz[at..at + n].copy_from_slice(&part.cloud.xyz);
+        if !c.scan.is_empty() {
+            c.scan[at..at + n].copy_from_slice(&part.cloud.scan);
+        }
+        if !c.time.is_empty() {
+            c.time[at..at + n].copy_from_slice(&part.cloud.time);
+        }
+        c.scan_ids = part.cloud.scan_ids;
+        sink.slots = part.slots;
+        sink.last = None;
+        sink.skipped += part.skipped;
+        sink.origin = part.origin;
+        *written += n;
+        Ok(())
+    }
+
     /// [`Self::decode`] in `parts` pieces on rayon's threads, with exactly its result: each
     /// piece collects its points and scan slots on its own, in the shared local frame, and
     /// the pieces are then appended in order. A piece that fails, or whose scans would not
@@ -831,6 +1023,120 @@ impl Records {
     }
 }
 
+/// A point is kept when its coordinates and time (if any) are finite.
+#[inline(always)]
+fn kept(p: &[f64; 3], t: Option<f64>) -> bool {
+    p.iter().all(|c| c.is_finite()) && t.is_none_or(f64::is_finite)
+}
+
+/// How a piece decoder reads a record's fields.
+trait Fields: Sync {
+    fn point(&self, rec: &[u8]) -> [f64; 3];
+    fn time(&self, rec: &[u8]) -> Option<f64>;
+    /// The scan id, if the layout has one; an error when it is not a whole number.
+    fn scan(&self, rec: &[u8]) -> Option<Result<u32, String>>;
+}
+
+/// Any fixed layout, each field decoded by its type.
+impl Fields for Records {
+    #[inline]
+    fn point(&self, rec: &[u8]) -> [f64; 3] {
+        self.xyz.map(|(o, s)| s.decode(&rec[o..], self.big))
+    }
+
+    #[inline]
+    fn time(&self, rec: &[u8]) -> Option<f64> {
+        self.time.map(|(o, s)| s.decode(&rec[o..], self.big))
+    }
+
+    #[inline]
+    fn scan(&self, rec: &[u8]) -> Option<Result<u32, String>> {
+        self.scan
+            .map(|(o, s)| scan_id(s.decode(&rec[o..], self.big)))
+    }
+}
+
+/// The commonest layout ([`fast_layout`]): little-endian `float` x, y, z at these offsets and
+/// an optional `uint` scan index; no time. Fixed types keep the loop free of type dispatch.
+struct F32Fields {
+    xyz: [usize; 3],
+    scan: Option<usize>,
+}
+
+/// Four bytes of a record from offset `o`: one bounds check and one load, not one a byte.
+#[inline(always)]
+fn le4(rec: &[u8], o: usize) -> [u8; 4] {
+    let mut a = [0; 4];
+    a.copy_from_slice(&rec[o..o + 4]);
+    a
+}
+
+impl Fields for F32Fields {
+    #[inline(always)]
+    fn point(&self, rec: &[u8]) -> [f64; 3] {
+        self.xyz.map(|o| f64::from(f32::from_le_bytes(le4(rec, o))))
+    }
+
+    #[inline]
+    fn time(&self, _: &[u8]) -> Option<f64> {
+        None
+    }
+
+    #[inline(always)]
+    fn scan(&self, rec: &[u8]) -> Option<Result<u32, String>> {
+        self.scan.map(|o| Ok(u32::from_le_bytes(le4(rec, o))))
+    }
+}
+
+/// What a piece decoded: its kept points, skipped points and scans, or that it failed.
+struct Piece {
+    kept: usize,
+    skipped: u64,
+    slots: LocalSlots,
+    failed: bool,
+}
+
+/// Decodes the records `recs` into the start of `out`, as [`Sink::push`] would push them.
+fn decode_piece<D: Fields>(
+    fields: &D,
+    recs: &[u8],
+    size: usize,
+    origin: [f64; 3],
+    out: Out<'_>,
+) -> Piece {
+    let mut piece = Piece {
+        kept: 0,
+        skipped: 0,
+        slots: LocalSlots::new(),
+        failed: false,
+    };
+    let mut w = 0;
+    for rec in recs.chunks_exact(size) {
+        let p = fields.point(rec);
+        let t = fields.time(rec);
+        if !kept(&p, t) {
+            piece.skipped += 1;
+            continue;
+        }
+        if let Some(id) = fields.scan(rec) {
+            match id.ok().and_then(|id| piece.slots.slot(id)) {
+                Some(slot) => out.scan[w] = slot,
+                None => {
+                    piece.failed = true;
+                    break;
+                }
+            }
+        }
+        if let Some(t) = t {
+            out.time[w] = t;
+        }
+        out.xyz[w] = to_local(origin, p);
+        w += 1;
+    }
+    piece.kept = w;
+    piece
+}
+
 /// For the layout [`Sink::push_f32_records`] decodes (little-endian `float` x, y, z, an
 /// optional `uint` scan index, no time): `Some` with the scan index's offset, if any.
 #[allow(clippy::type_complexity)]
@@ -873,6 +1179,16 @@ fn truncated_vertices(e: ReadError, done: u64, count: u64, block: usize) -> Read
         },
         other => other,
     }
+}
+
+/// A failed read of `what` from byte `offset`, as the reader reports it.
+fn fill_error(path: &Path, e: std::io::Error, what: &str, offset: u64) -> ReadError {
+    let why = if e.kind() == std::io::ErrorKind::UnexpectedEof {
+        format!("the file is truncated: it ends inside {what}")
+    } else {
+        e.to_string()
+    };
+    invalid(path, why, Some(format!("byte offset {offset}")))
 }
 
 pub(super) fn invalid(path: &Path, why: impl Into<String>, at: Option<String>) -> ReadError {
@@ -949,9 +1265,16 @@ mod tests {
             assert_eq!(serial.len(), 20_011 - 3 - 20);
             assert_eq!(serial.scan_ids, vec![40, 7, 12, 99, 3]);
             // Blocks and pieces that split the file at odd records.
-            for (block, parts) in [(997, 3), (4_099, 7), (20_011, 2), (1 << 20, 5), (1, 2)] {
-                let parallel = read(&bytes, Split { block, parts }).unwrap();
-                same(&serial, &parallel);
+            // Pieces through a sink each, and straight into the arrays.
+            for direct in [false, true] {
+                for (block, parts) in [(997, 3), (4_099, 7), (20_011, 2), (1 << 20, 5), (1, 2)] {
+                    let split = Split {
+                        block,
+                        parts,
+                        direct,
+                    };
+                    same(&serial, &read(&bytes, split).unwrap());
+                }
             }
         }
     }
@@ -960,7 +1283,12 @@ mod tests {
     fn same_ascii(text: &[u8]) {
         let serial = read(text, Split::SERIAL);
         for (block, parts) in [(1, 2), (3, 3), (97, 2), (4_099, 5), (1 << 20, 2)] {
-            let parallel = read(text, Split { block, parts });
+            let split = Split {
+                block,
+                parts,
+                direct: true,
+            };
+            let parallel = read(text, split);
             match (&serial, &parallel) {
                 (Ok(a), Ok(b)) => same(a, b),
                 (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string()),
@@ -1023,22 +1351,24 @@ mod tests {
         }
         let serial = read(&bytes, Split::SERIAL).unwrap_err().to_string();
         assert!(serial.contains("distinct scan indices"), "{serial}");
-        for (block, parts) in [(9_999, 3), (1 << 20, 2)] {
-            let parallel = read(&bytes, Split { block, parts })
-                .unwrap_err()
-                .to_string();
-            assert_eq!(parallel, serial);
-        }
-        // A truncated body is still an error, not a panic.
-        let cut = &bytes[..bytes.len() - 7];
-        let err = read(
-            cut,
-            Split {
+        for direct in [false, true] {
+            for (block, parts) in [(9_999, 3), (1 << 20, 2), (9_999, 1)] {
+                let split = Split {
+                    block,
+                    parts,
+                    direct,
+                };
+                assert_eq!(read(&bytes, split).unwrap_err().to_string(), serial);
+            }
+            // A truncated body is still an error, not a panic.
+            let cut = &bytes[..bytes.len() - 7];
+            let split = Split {
                 block: 9_999,
                 parts: 3,
-            },
-        )
-        .unwrap_err();
-        assert!(err.to_string().contains("truncated"), "{err}");
+                direct,
+            };
+            let err = read(cut, split).unwrap_err();
+            assert!(err.to_string().contains("truncated"), "{err}");
+        }
     }
 }
