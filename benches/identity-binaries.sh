@@ -4,15 +4,7 @@
 # Usage: benches/identity-binaries.sh BEFORE AFTER FILE [--poses F | --trajectory F | --scan-column N] ...
 A=$1; B=$2; shift 2
 OUT=$(mktemp -d)
-strip() { python3 -c '
-import json,sys
-def drop(o):
-    if isinstance(o, dict):
-        return {k: drop(v) for k, v in o.items() if "timing" not in k}
-    if isinstance(o, list):
-        return [drop(v) for v in o]
-    return o
-print(json.dumps(drop(json.load(open(sys.argv[1]))), sort_keys=True))' "$1"; }
+strip() { python3 "$(dirname "$0")/strip_timings.py" "$1"; }
 while [ $# -gt 0 ]; do
   f=$1; shift; extra=()
   case "$1" in --poses|--trajectory|--scan-column) extra=("$1" "$2"); shift 2 ;; esac

@@ -4,15 +4,7 @@
 # Usage: benches/identity-readers.sh BINARY FILE [--poses F | --scan-column N] ...
 BIN=$1; shift
 OUT=/tmp/speed-ident; mkdir -p $OUT
-strip() { python3 -c '
-import json,sys
-def drop(o):
-    if isinstance(o, dict):
-        return {k: drop(v) for k, v in o.items() if "timing" not in k}
-    if isinstance(o, list):
-        return [drop(v) for v in o]
-    return o
-print(json.dumps(drop(json.load(open(sys.argv[1]))), sort_keys=True))' "$1"; }
+strip() { python3 "$(dirname "$0")/strip_timings.py" "$1"; }
 while [ $# -gt 0 ]; do
   f=$1; shift; extra=()
   if [ "$1" = "--poses" ]; then extra=(--poses "$2"); shift 2; fi

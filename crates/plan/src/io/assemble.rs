@@ -294,6 +294,26 @@ pub(crate) fn split_out<'a>(
     outs
 }
 
+/// Decodes the fixed-size records `buf` (`size` bytes each) into `out` with `decode`, in pieces
+/// of `per` records on the pool's threads (one piece when they all fit), in order.
+pub(crate) fn decode_pieces<P: Send>(
+    out: Out<'_>,
+    buf: &[u8],
+    size: usize,
+    per: usize,
+    decode: impl Fn(&[u8], Out<'_>) -> P + Sync,
+) -> Vec<P> {
+    use rayon::prelude::*;
+    if out.xyz.len() <= per {
+        return vec![decode(buf, out)];
+    }
+    split_out(out.xyz, out.scan, out.time, per)
+        .into_par_iter()
+        .zip(buf.par_chunks(per * size))
+        .map(|(out, recs)| decode(recs, out))
+        .collect()
+}
+
 /// The first `n` items of `a` (all of them when fewer), leaving `a` the rest.
 fn take_front<'a, T>(a: &mut &'a mut [T], n: usize) -> &'a mut [T] {
     let k = n.min(a.len());

@@ -7,13 +7,12 @@
 use std::io::{Read, Seek, SeekFrom};
 
 use las::{LazParallelism, PointData, PointDataBuilder, Reader, ReaderOptions};
-use rayon::prelude::*;
 
 mod chunks;
 
 pub use chunks::LasChunks;
 
-use super::assemble::{settle, split_out, CloudBuilder, LocalSlots, Out};
+use super::assemble::{decode_pieces, settle, CloudBuilder, LocalSlots, Out};
 use super::{ReadError, ReadOptions};
 use crate::cloud::{to_local, PointCloud};
 
@@ -309,15 +308,9 @@ fn decode_las_block(
     let origin = b.origin().unwrap_or_default();
     let per = n.div_ceil(parts.max(1)).max(1);
     let out = Out::of(b.cloud_mut(), at, n);
-    let pieces: Vec<LasPiece> = if n <= per {
-        vec![decode_las_piece(layout, guard, buf, origin, out)]
-    } else {
-        split_out(out.xyz, out.scan, out.time, per)
-            .into_par_iter()
-            .zip(buf.par_chunks(per * size))
-            .map(|(out, recs)| decode_las_piece(layout, guard, recs, origin, out))
-            .collect()
-    };
+    let pieces = decode_pieces(out, buf, size, per, |recs, out| {
+        decode_las_piece(layout, guard, recs, origin, out)
+    });
     // Pieces' scans take the cloud's slots in order, as a serial read would give them.
     let mut maps = Vec::with_capacity(pieces.len());
     for piece in &pieces {
@@ -1001,9 +994,6 @@ mod tests {
             let skipped = serial.source.skipped as usize;
             assert_eq!((skipped > 0, serial.len()), (skips, n - skipped));
             assert!(serial.len() > 1_000, "some points are still kept");
-            let bits = |c: &PointCloud| -> Vec<[u32; 3]> {
-                c.xyz.iter().map(|p| p.map(f32::to_bits)).collect()
-            };
             let direct = |batch: u64, group: usize, parts: usize| {
                 let mut source = Cursor::new(bytes.clone());
                 let plan = check_header(&mut source, len, "t.las").unwrap();
@@ -1020,12 +1010,7 @@ mod tests {
             ];
             for (batch, group, parts) in cases {
                 let parallel = direct(batch, group, parts).unwrap();
-                assert!(bits(&serial) == bits(&parallel), "points differ");
-                assert_eq!(serial.scan, parallel.scan);
-                assert_eq!(serial.scan_ids, parallel.scan_ids);
-                assert_eq!(serial.time, parallel.time);
-                assert_eq!(serial.origin, parallel.origin);
-                assert_eq!(serial.source, parallel.source);
+                assert_same(&serial, &parallel);
             }
         }
         // A read that fails part way names the same points whether decoded in parallel or not.
@@ -1081,14 +1066,19 @@ mod tests {
         };
         let (serial, parallel) = (read(false), read(true));
         assert_eq!(serial.len(), n);
+        assert_same(&serial, &parallel);
+    }
+
+    /// Two reads of one file gave the same cloud, bit for bit.
+    fn assert_same(a: &PointCloud, b: &PointCloud) {
         let bits = |c: &PointCloud| -> Vec<[u32; 3]> {
             c.xyz.iter().map(|p| p.map(f32::to_bits)).collect()
         };
-        assert!(bits(&serial) == bits(&parallel), "points differ");
-        assert_eq!(serial.scan, parallel.scan);
-        assert_eq!(serial.scan_ids, parallel.scan_ids);
-        assert_eq!(serial.time, parallel.time);
-        assert_eq!(serial.origin, parallel.origin);
-        assert_eq!(serial.source, parallel.source);
+        assert!(bits(a) == bits(b), "points differ");
+        assert_eq!(a.scan, b.scan);
+        assert_eq!(a.scan_ids, b.scan_ids);
+        assert_eq!(a.time, b.time);
+        assert_eq!(a.origin, b.origin);
+        assert_eq!(a.source, b.source);
     }
 }

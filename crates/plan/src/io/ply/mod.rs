@@ -19,7 +19,7 @@ use rayon::prelude::*;
 
 use super::ReadError;
 use crate::cloud::{local_origin, to_local, PointCloud, SourceInfo};
-use crate::io::assemble::{settle, split_out, LocalSlots, Out};
+use crate::io::assemble::{decode_pieces, settle, LocalSlots, Out};
 use header::{describe, read_header, vertices, Element, Header, Kind, Layout, Scalar};
 
 pub use chunks::PlyChunks;
@@ -909,15 +909,9 @@ impl Records {
         let at = *written;
         let per = n.div_ceil(parts.max(1)).max(1);
         let out = Out::of(&mut sink.cloud, at, n);
-        let pieces: Vec<Piece> = if n <= per {
-            vec![decode_piece(fields, buf, size, origin, out)]
-        } else {
-            split_out(out.xyz, out.scan, out.time, per)
-                .into_par_iter()
-                .zip(buf.par_chunks(per * size))
-                .map(|(out, recs)| decode_piece(fields, recs, size, origin, out))
-                .collect()
-        };
+        let pieces = decode_pieces(out, buf, size, per, |recs, out| {
+            decode_piece(fields, recs, size, origin, out)
+        });
         // Pieces' scans take the cloud's slots in order, as a serial read would give them.
         let known = sink.cloud.scan_ids.len();
         let mut maps = Vec::with_capacity(pieces.len());
