@@ -241,4 +241,25 @@ mod tests {
         assert_eq!(c.forced[t as usize], Some(true));
         assert_eq!(c.rays, 0);
     }
+
+    #[test]
+    fn a_gap_in_the_path_forces_nothing_between_its_ends() {
+        let mut ws = room(vec![]);
+        ws.path = vec![
+            [0.5, 0.5],
+            [1.0, 0.5],
+            [f64::NAN; 2],
+            [3.5, 3.5],
+            [3.5, 3.0],
+        ];
+        let pts: Vec<P2> = ws.samples.iter().map(|s| s.pos).collect();
+        let mesh = Mesh::build(&pts, &[]).unwrap();
+        let c = hard_constraints(&mesh, &ws, &LabelingParams::default(), &Cancel::never()).unwrap();
+        assert!(c.inside_path > 0);
+        let t = locate(&mesh, [2.0, 2.0], 0).unwrap();
+        assert_eq!(
+            c.forced[t as usize], None,
+            "the gap's straight line is not walked"
+        );
+    }
 }

@@ -120,7 +120,8 @@ pub struct WallSamples {
     pub samples: Vec<WallSample>,
     /// Scanner positions (local x, y) that saw this story: static poses, or trajectory positions.
     pub viewpoints: Vec<P2>,
-    /// The mobile scanner's path through this story, in time order; empty for static scans.
+    /// The mobile scanner's path through this story, in time order, a non-finite point where
+    /// it has a gap; empty for static scans.
     pub path: Vec<P2>,
     /// The neighbourhood point threshold actually used (given or derived), story-wide.
     pub min_points_used: usize,

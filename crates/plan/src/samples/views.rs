@@ -29,7 +29,7 @@ pub(super) struct Views<'a> {
     kind: Kind<'a>,
     /// Listed viewpoints, local x, y.
     pub viewpoints: Vec<P2>,
-    /// The trajectory through the story, local x, y, in time order.
+    /// The trajectory through the story, local x, y, in time order; non-finite at its gaps.
     pub path: Vec<P2>,
 }
 
@@ -105,13 +105,11 @@ impl<'a> Views<'a> {
                     .iter()
                     .filter(|s| !any_inside || in_story(&s.position))
                     .collect();
-                let path: Vec<P2> = inside
-                    .iter()
-                    .map(|s| [s.position[0], s.position[1]])
-                    .collect();
+                let max_step = max_step(&traj);
+                let path = broken_at_gaps(&inside, max_step);
                 let (viewpoints, listed_t) = list_along(&inside, TRAJECTORY_SPACING);
                 let kind = Kind::Trajectory {
-                    max_step: max_step(&traj),
+                    max_step,
                     traj,
                     listed_t,
                 };
@@ -349,6 +347,20 @@ fn list_along(samples: &[&TrajectorySample], spacing: f64) -> (Vec<P2>, Vec<f64>
     (points, times)
 }
 
+/// The samples' x, y in order, with a non-finite point where two consecutive samples are more
+/// than `max_step` apart: the scanner's way across a gap is unknown, and the straight line
+/// may cross a wall.
+fn broken_at_gaps(samples: &[&TrajectorySample], max_step: f64) -> Vec<P2> {
+    let mut path = Vec::with_capacity(samples.len());
+    for (k, s) in samples.iter().enumerate() {
+        if k > 0 && dist3(samples[k - 1].position, s.position) > max_step {
+            path.push([f64::NAN; 2]);
+        }
+        path.push([s.position[0], s.position[1]]);
+    }
+    path
+}
+
 /// Consecutive trajectory samples farther apart than this, in 3D, leave a gap in the path:
 /// [`GAP_STEPS`] times the median step, and never under [`MIN_GAP`]. A path estimated from the
 /// points has gaps where windows could not be located (on stairs, say); a straight line across
@@ -543,6 +555,22 @@ mod tests {
         // t = 2.5 is where the scanner stood at x = 0.25; t = 9 at x = 0.9.
         assert_eq!(seen.seen_from, vec![25, 90]);
         assert!((seen.nearest.unwrap() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_path_is_broken_where_the_trajectory_jumps() {
+        let at = |t: f64, x: f64| TrajectorySample {
+            t,
+            position: [x, 0.0, 1.5],
+            quaternion: [1.0, 0.0, 0.0, 0.0],
+        };
+        let traj = [at(0.0, 0.0), at(1.0, 1.0), at(2.0, 5.0), at(3.0, 6.0)];
+        let refs: Vec<&TrajectorySample> = traj.iter().collect();
+        let path = broken_at_gaps(&refs, 2.0);
+        assert_eq!(path.len(), 5);
+        assert!(path[2][0].is_nan() && path[2][1].is_nan());
+        assert_eq!([path[1], path[3]], [[1.0, 0.0], [5.0, 0.0]]);
+        assert_eq!(broken_at_gaps(&refs, 4.0).len(), 4);
     }
 
     #[test]

@@ -47,7 +47,7 @@ pub(crate) fn estimate_path(cloud: &PointCloud, params: &super::ViewpointsParams
         })
         .collect();
     let kept = drop_jumps(&found);
-    let samples: Vec<(f64, [f64; 3])> = kept.iter().map(|(t, c)| (*t, c.apex)).collect();
+    let samples = turn_corners(&kept);
     let mut residuals: Vec<f64> = kept.iter().map(|(_, c)| c.residual).collect();
     residuals.sort_by(f64::total_cmp);
     let length = samples
@@ -127,6 +127,72 @@ fn drop_jumps(found: &[(f64, cone::Cone)]) -> Vec<(f64, cone::Cone)> {
         .collect()
 }
 
+/// Two windows' headings this far apart, or more, are a turn between them: cos 30°.
+const TURN_COS: f64 = 0.866;
+/// A turn's two legs together may be at most this many times the distance walked between the
+/// windows (their mean speed times the time between them), plus [`LEG_SLACK`].
+const LEG_RATIO: f64 = 1.5;
+/// See [`LEG_RATIO`], metres.
+const LEG_SLACK: f64 = 0.5;
+
+/// The windows' positions in time order, with the corner of each turn between two windows put
+/// in: a walker keeps a heading, then turns. The straight line between two windows on either
+/// side of a corridor's corner cuts through what the corridor walks around (a shaft, a room's
+/// corner); the two headings meet at the turn instead. A turn is put in only where each
+/// heading reaches the meeting point going forward and the two legs add up to about the
+/// distance walked.
+fn turn_corners(kept: &[(f64, cone::Cone)]) -> Vec<(f64, [f64; 3])> {
+    let mut out: Vec<(f64, [f64; 3])> = Vec::with_capacity(kept.len());
+    for (k, (t, c)) in kept.iter().enumerate() {
+        if let Some((prev_t, prev)) = k.checked_sub(1).map(|j| &kept[j]) {
+            if let Some(corner) = turn(*prev_t, prev, *t, c) {
+                out.push(corner);
+            }
+        }
+        out.push((*t, c.apex));
+    }
+    out
+}
+
+/// The corner between window `a` at time `ta` and window `b` at `tb`, if they turn (see
+/// [`turn_corners`]).
+fn turn(ta: f64, a: &cone::Cone, tb: f64, b: &cone::Cone) -> Option<(f64, [f64; 3])> {
+    use crate::geom::{cross, dot, norm, sub};
+    let (sa, sb) = (norm(a.velocity), norm(b.velocity));
+    let dt = tb - ta;
+    if !(sa > 0.0 && sb > 0.0 && dt > 0.0) {
+        return None;
+    }
+    let (ua, ub) = (
+        [a.velocity[0] / sa, a.velocity[1] / sa],
+        [b.velocity[0] / sb, b.velocity[1] / sb],
+    );
+    if dot(ua, ub) > TURN_COS {
+        return None;
+    }
+    // a + s·ua = b − u·ub, for s, u ≥ 0.
+    let d = sub([b.apex[0], b.apex[1]], [a.apex[0], a.apex[1]]);
+    let det = cross(ua, ub);
+    if det.abs() < 1e-9 {
+        return None;
+    }
+    let s = cross(d, ub) / det;
+    let u = cross(ua, d) / det;
+    let walked = (sa + sb) / 2.0 * dt;
+    if !(s >= 0.0 && u >= 0.0 && s + u <= LEG_RATIO * walked + LEG_SLACK) {
+        return None;
+    }
+    let w = s / (s + u).max(1e-12);
+    Some((
+        ta + w * dt,
+        [
+            a.apex[0] + s * ua[0],
+            a.apex[1] + s * ua[1],
+            a.apex[2] + w * (b.apex[2] - a.apex[2]),
+        ],
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -163,6 +229,44 @@ mod tests {
         let r = e.report.path.unwrap();
         assert_eq!((r.windows, r.located), (5, 5));
         assert!((r.length.unwrap() - 0.4 * 1.25f64.sqrt()).abs() < 0.05);
+    }
+
+    fn walker(apex: [f64; 2], velocity: [f64; 2]) -> cone::Cone {
+        cone::Cone {
+            apex: [apex[0], apex[1], 1.0],
+            velocity,
+            slope: 1.0,
+            support: 40,
+            residual: 0.01,
+        }
+    }
+
+    #[test]
+    fn a_turn_between_two_windows_puts_its_corner_in() {
+        // Along x at 1 m/s to the corner (3, 0), then along y: seen at t = 1 and t = 5.
+        let (a, b) = (
+            walker([1.0, 0.0], [1.0, 0.0]),
+            walker([3.0, 2.0], [0.0, 1.0]),
+        );
+        let (t, p) = turn(1.0, &a, 5.0, &b).expect("a corner");
+        assert!((t - 3.0).abs() < 1e-9, "{t}");
+        assert!(crate::geom::dist([p[0], p[1]], [3.0, 0.0]) < 1e-9, "{p:?}");
+        let path = turn_corners(&[(1.0, a), (5.0, b)]);
+        assert_eq!(path.len(), 3);
+        assert_eq!(path[1].0, t);
+    }
+
+    #[test]
+    fn no_corner_without_a_turn_one_behind_or_one_too_far() {
+        let a = walker([1.0, 0.0], [1.0, 0.0]);
+        // Straight on.
+        assert!(turn(1.0, &a, 3.0, &walker([3.0, 0.1], [1.0, 0.0])).is_none());
+        // The headings meet behind the first window.
+        assert!(turn(1.0, &a, 5.0, &walker([-1.0, 2.0], [0.0, 1.0])).is_none());
+        // Legs of 8 m where 2 m were walked.
+        assert!(turn(1.0, &a, 3.0, &walker([5.0, 4.0], [0.0, 1.0])).is_none());
+        // A standing scanner has no heading.
+        assert!(turn(1.0, &walker([1.0, 0.0], [0.0; 2]), 5.0, &a).is_none());
     }
 
     #[test]
