@@ -1,11 +1,11 @@
 //! Draws one story's stages as SVG, for looking at what the labeling did.
 //!
 //! Run with `cargo run --release -p asbuilt-plan --example render_stages -- BUILDING POINTS SEED
-//! LEVEL OUT_DIR [--no-poses] [--mobile] [--view X0,Y0,X1,Y1]`, or on a scan file with
+//! LEVEL OUT_DIR [--no-poses | --plain] [--mobile] [--view X0,Y0,X1,Y1]`, or on a scan file with
 //! `-- --input FILE [--poses FILE] LEVEL OUT_DIR [--no-poses] [--view ...]` (no truth drawn; the
 //! view is in the cloud's local frame). It writes `labels.svg` (after labeling), `cleaned.svg` (after
 //! cleanup) and `fitted.svg` (the final polygons over the cleaned labels, truth in red). Scanners the
-//! cloud does not give are estimated first, as the plan does (open-space pseudo-viewpoints excepted).
+//! cloud does not give are estimated first, as the plan does (pseudo-viewpoints in open space too).
 //! Triangles: inside light blue, outside white, forced inside dark blue, forced outside grey.
 //!
 //! It also writes `plan.png`: the plan the pipeline makes (`asbuilt_plan::plan`, derived
@@ -63,10 +63,15 @@ fn main() {
     let level: usize = args[0].parse().unwrap();
     let out = std::path::PathBuf::from(&args[1]);
     std::fs::create_dir_all(&out).unwrap();
-    if args.iter().any(|a| a == "--no-poses") {
+    let plain = args.iter().any(|a| a == "--plain");
+    if plain || args.iter().any(|a| a == "--no-poses") {
         cloud.viewpoints = Viewpoints::None;
         cloud.scan.clear();
         cloud.scan_ids.clear();
+    }
+    // Plain x, y, z: no times either, so no path can be estimated.
+    if plain {
+        cloud.time.clear();
     }
     let mut params = Params::default();
     while let Some(i) = args.iter().position(|a| a == "--param") {
@@ -162,12 +167,22 @@ fn main() {
     }
     // The stages below run with the parameters the plan derived from the point spacing.
     let (params, _) = params.derive(SpacingProbe::of(&cloud.xyz).spacing());
-    // Scanners the cloud does not give are estimated as the plan does (pseudo-viewpoints in
-    // open space excepted: they come after the samples).
-    if let Some(v) = asbuilt_plan::viewpoints::estimate(&cloud, &params.viewpoints).viewpoints {
-        cloud.viewpoints = v;
+    // Scanners the cloud does not give are estimated as the plan does: from scan ids or times,
+    // else pseudo-viewpoints in the open space the samples enclose.
+    let estimated = asbuilt_plan::viewpoints::estimate(&cloud, &params.viewpoints).viewpoints;
+    if let Some(v) = &estimated {
+        cloud.viewpoints = v.clone();
     }
     let mut samples = sample_walls(&cloud, story, &params.samples, &Cancel::never()).unwrap();
+    if matches!(cloud.viewpoints, Viewpoints::None) && params.viewpoints.open_space {
+        asbuilt_plan::viewpoints::place_open_space(
+            &cloud.xyz,
+            story,
+            &mut samples,
+            &params.viewpoints,
+            params.samples.max_range,
+        );
+    }
     smooth_samples(
         &mut samples,
         params.samples.cell_size,

@@ -215,15 +215,11 @@ pub fn plan(
         )?;
         // Timed with sampling.
         if plain {
-            let escape = story.open_space_max_escape(params.viewpoints.open_space_max_escape);
-            let placed = viewpoints::open_space::place(
+            let placed = viewpoints::place_open_space(
                 &cloud.xyz,
                 story,
                 &mut samples,
-                &viewpoints::ViewpointsParams {
-                    open_space_max_escape: escape,
-                    ..params.viewpoints.clone()
-                },
+                &params.viewpoints,
                 p.max_range,
             );
             open_space.borrow_mut().push(placed);

@@ -168,7 +168,9 @@ fn office_without_poses() {
     assert_eq!(plan.stories.len(), 3, "{s}");
     assert!(e.all_watertight(), "{s}");
     assert!(e.max_height_error() <= 0.02, "{s}");
-    assert!(e.min_iou() >= 0.95, "without poses IoU >= 0.95\n{s}");
+    // Plain x, y, z: 0.9976 since a pseudo-viewpoint behind a wall face no longer sees it
+    // through a gap (0.955 while its lines of sight crossed the core's closed shafts).
+    assert!(e.min_iou() >= 0.99, "without poses IoU >= 0.99\n{s}");
 }
 
 #[test]
@@ -330,6 +332,15 @@ fn sparse_mobile_scan_of_the_office() {
         "IoU with {} and without trajectory\n{s}",
         e.min_iou()
     );
+    let problems = asbuilt_plan::validity::plan_problems(&plan);
+    assert!(problems.is_empty(), "{problems:?}");
+    // Plain x, y, z, without times either: 0.9794 (0.9139 while pseudo-viewpoints saw walls
+    // from behind, through gaps, and their lines of sight filled the core's shafts).
+    cloud.time.clear();
+    let (plan, plain) = plan_and_score(&cloud, &sim, &Params::default());
+    let s = plain.summary();
+    assert!(plain.all_watertight(), "every story found\n{s}");
+    assert!(plain.min_iou() >= 0.97, "IoU of plain x, y, z\n{s}");
     let problems = asbuilt_plan::validity::plan_problems(&plan);
     assert!(problems.is_empty(), "{problems:?}");
 }

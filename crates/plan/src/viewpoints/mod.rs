@@ -237,6 +237,24 @@ pub struct Estimate {
     pub report: ViewpointsReport,
 }
 
+/// Places pseudo-viewpoints in `story`'s open space for plain x, y, z (see [`open_space`]):
+/// `samples` get them as viewpoints, each sample the ones that see it. A story without a
+/// floor seen lets more directions escape. `max_range` is the scanner range of sampling.
+pub fn place_open_space(
+    xyz: &[[f32; 3]],
+    story: &crate::stories::Story,
+    samples: &mut crate::samples::WallSamples,
+    params: &ViewpointsParams,
+    max_range: f64,
+) -> OpenSpaceStory {
+    let escape = story.open_space_max_escape(params.open_space_max_escape);
+    let params = ViewpointsParams {
+        open_space_max_escape: escape,
+        ..params.clone()
+    };
+    open_space::place(xyz, story, samples, &params, max_range)
+}
+
 /// Looks at what the cloud says about its scanners and estimates what it does not say.
 pub fn estimate(cloud: &PointCloud, params: &ViewpointsParams) -> Estimate {
     let counts = scan_counts(cloud);

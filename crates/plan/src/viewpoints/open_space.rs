@@ -125,14 +125,17 @@ pub(crate) fn place(
         })
         .collect();
     for (s, from) in samples.samples.iter_mut().zip(seen) {
+        let mut from = from;
         if let Some(&v) = from.first() {
             // Facing the nearest viewpoint, as a scanner's normals face it.
             if dot(s.normal, sub(places[v as usize], s.pos)) < 0.0 {
                 s.normal = [-s.normal[0], -s.normal[1]];
             }
             report.samples_seen += 1;
+            // A place behind the face saw it through a gap in the wall it stands on, and its
+            // line of sight crosses what lies behind the wall (a closed shaft, say).
+            from.retain(|&v| dot(s.normal, sub(places[v as usize], s.pos)) >= 0.0);
         }
-        let mut from = from;
         from.sort_unstable();
         s.seen_from = from;
     }
@@ -430,6 +433,59 @@ mod tests {
                 assert_eq!(v[1] < 3.0, s.pos[1] < 3.0, "{:?} sees {:?}", v, s.pos);
             }
         }
+    }
+
+    #[test]
+    fn a_place_behind_a_face_does_not_see_it_through_a_gap() {
+        // Rooms at x 0-4 and 6-10 with a closed, unscanned shaft between them; the wall at
+        // x = 4 has a 1 m gap, through which the left room's place would see the shaft's far
+        // wall, the right room's near face, across the shaft.
+        let mut all = ring_samples(&[[0.0, 0.0], [10.0, 0.0], [10.0, 4.0], [0.0, 4.0]]);
+        let wall = |x: f64| ring_samples(&[[x, 0.0], [x, 4.0]]);
+        all.extend(
+            wall(4.0)
+                .into_iter()
+                .filter(|s| !(1.5..2.5).contains(&s.pos[1])),
+        );
+        all.extend(wall(6.0));
+        let mut samples = WallSamples {
+            samples: all,
+            ..Default::default()
+        };
+        let xyz = floor([0.0, 0.0], [10.0, 4.0], |p| p[0] < 4.0 || p[0] > 6.0);
+        let report = place(
+            &xyz,
+            &story(),
+            &mut samples,
+            &ViewpointsParams::default(),
+            20.0,
+        );
+        assert!(
+            report.viewpoints.iter().any(|v| v[0] < 4.0),
+            "{:?}",
+            report.viewpoints
+        );
+        assert!(
+            report.viewpoints.iter().any(|v| v[0] > 6.0),
+            "{:?}",
+            report.viewpoints
+        );
+        let mut far_wall_seen = 0;
+        for s in &samples.samples {
+            for &k in &s.seen_from {
+                let v = samples.viewpoints[k as usize];
+                assert!(
+                    dot(s.normal, sub(v, s.pos)) >= 0.0,
+                    "{v:?} behind {:?}",
+                    s.pos
+                );
+                if (s.pos[0] - 6.0).abs() < 1e-9 && (0.5..3.5).contains(&s.pos[1]) {
+                    assert!(v[0] > 6.0, "{v:?} sees {:?} across the shaft", s.pos);
+                    far_wall_seen += 1;
+                }
+            }
+        }
+        assert!(far_wall_seen > 0);
     }
 
     #[test]
