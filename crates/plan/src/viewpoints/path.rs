@@ -134,13 +134,16 @@ const TURN_COS: f64 = 0.866;
 const LEG_RATIO: f64 = 1.5;
 /// See [`LEG_RATIO`], metres.
 const LEG_SLACK: f64 = 0.5;
+/// A walker who turns back returns along the line they left by, within this, metres.
+const MAX_ASIDE: f64 = 0.5;
 
 /// The windows' positions in time order, with the corner of each turn between two windows put
 /// in: a walker keeps a heading, then turns. The straight line between two windows on either
 /// side of a corridor's corner cuts through what the corridor walks around (a shaft, a room's
 /// corner); the two headings meet at the turn instead. A turn is put in only where each
 /// heading reaches the meeting point going forward and the two legs add up to about the
-/// distance walked.
+/// distance walked. A walker who turns back (into a doorway and out again, say) turned where
+/// the time walked takes them from the one window to the other.
 fn turn_corners(kept: &[(f64, cone::Cone)]) -> Vec<(f64, [f64; 3])> {
     let mut out: Vec<(f64, [f64; 3])> = Vec::with_capacity(kept.len());
     for (k, (t, c)) in kept.iter().enumerate() {
@@ -170,15 +173,20 @@ fn turn(ta: f64, a: &cone::Cone, tb: f64, b: &cone::Cone) -> Option<(f64, [f64; 
     if dot(ua, ub) > TURN_COS {
         return None;
     }
-    // a + s·ua = b − u·ub, for s, u ≥ 0.
     let d = sub([b.apex[0], b.apex[1]], [a.apex[0], a.apex[1]]);
-    let det = cross(ua, ub);
-    if det.abs() < 1e-9 {
-        return None;
-    }
-    let s = cross(d, ub) / det;
-    let u = cross(ua, d) / det;
     let walked = (sa + sb) / 2.0 * dt;
+    let (s, u) = if dot(ua, ub) < -TURN_COS {
+        // Turned back: out s along a's heading and u back to b, on one line, s + u walked.
+        if cross(ua, d).abs() > MAX_ASIDE {
+            return None;
+        }
+        let ahead = dot(d, ua);
+        ((walked + ahead) / 2.0, (walked - ahead) / 2.0)
+    } else {
+        // a + s·ua = b − u·ub.
+        let det = cross(ua, ub);
+        (cross(d, ub) / det, cross(ua, d) / det)
+    };
     if !(s >= 0.0 && u >= 0.0 && s + u <= LEG_RATIO * walked + LEG_SLACK) {
         return None;
     }
@@ -254,6 +262,24 @@ mod tests {
         let path = turn_corners(&[(1.0, a), (5.0, b)]);
         assert_eq!(path.len(), 3);
         assert_eq!(path[1].0, t);
+    }
+
+    #[test]
+    fn a_walker_who_turns_back_turned_where_the_time_walked_says() {
+        // Down into a doorway at 1 m/s, seen at (0, -1) at t = 0 and at (0, -0.5) at t = 3,
+        // coming back: out 1.25 m to (0, -2.25), back 1.75 m.
+        let (a, b) = (
+            walker([0.0, -1.0], [0.0, -1.0]),
+            walker([0.0, -0.5], [0.0, 1.0]),
+        );
+        let (t, p) = turn(0.0, &a, 3.0, &b).expect("a turn back");
+        assert!((t - 1.25).abs() < 1e-9, "{t}");
+        assert!(
+            crate::geom::dist([p[0], p[1]], [0.0, -2.25]) < 1e-9,
+            "{p:?}"
+        );
+        // Not when the second window is off the first one's line.
+        assert!(turn(0.0, &a, 3.0, &walker([1.0, -0.5], [0.0, 1.0])).is_none());
     }
 
     #[test]
