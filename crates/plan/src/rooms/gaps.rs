@@ -35,6 +35,9 @@ pub(crate) struct Gap {
     /// Both jambs are ends of one straight wall of one thickness: a doorway in that wall, a
     /// door even where the floor goes around the wall's far end.
     pub in_wall: bool,
+    /// The points show the wall standing across the gap under the door height (see
+    /// [`lintels`]): a stretch of wall the plan lost, closed like a crack and never a door.
+    pub walled: bool,
 }
 
 impl Gap {
@@ -69,6 +72,11 @@ impl Gap {
             ),
             None => (self.a, self.b, self.width),
         }
+    }
+
+    /// Always cut and never a door: a crack, or a stretch of wall the plan lost.
+    pub fn closed(&self) -> bool {
+        self.crack || self.walled
     }
 
     /// Points just beyond either face at the gap's middle: in the two rooms it joins.
@@ -224,6 +232,7 @@ fn cast_gap(
         reach: [0.05, 0.05],
         jambs: None,
         in_wall: false,
+        walled: false,
     };
     // A crack is free floor between the wall's end and the face; solid there is a wall meeting
     // another, nothing to close.
@@ -298,6 +307,9 @@ fn cast(origin: P2, dir: P2, faces: &[Face], max: f64) -> Option<(f64, f64, Opti
 
 /// Looks at the points over each gap: a lintel when enough 10 cm slices along its width hold
 /// a point between `min_head_height` above the floor and `ceiling_margin` under the ceiling.
+/// Also looks under the door height: where the wall's points stand across nearly all of the
+/// gap, the plan lost a stretch of wall there (a face's samples too sparse for a model), and
+/// the gap is walled.
 pub(crate) fn lintels(
     gaps: &mut [Gap],
     story: &StoryPlan,
@@ -320,6 +332,7 @@ pub(crate) fn lintels(
         .map(|g| ((g.width / 0.1).ceil() as usize).max(1))
         .collect();
     let low = (story.floor_z + JAMB_ABOVE_FLOOR, z0);
+    let bins = (((low.1 - low.0) / WALLED_BIN).ceil() as usize).clamp(1, 32);
     let boxes: Vec<[f64; 4]> = gaps
         .iter()
         .map(|g| {
@@ -333,6 +346,7 @@ pub(crate) fn lintels(
         hit: slices.iter().map(|&n| vec![false; n]).collect(),
         heights: vec![Vec::new(); gaps.len()],
         near_jamb: vec![[Nearest::default(); 2]; gaps.len()],
+        low: slices.iter().map(|&n| vec![0; n]).collect(),
     };
     // A very dense cloud is read in a stride: lintels stay well covered. Both cores read a
     // share each; what they saw merges the same in any order.
@@ -341,6 +355,7 @@ pub(crate) fn lintels(
         hit,
         mut heights,
         near_jamb,
+        low: walls,
     } = points.fold(
         stride,
         empty,
@@ -365,6 +380,12 @@ pub(crate) fn lintels(
                         } else {
                             seen.near_jamb[k][1].offer(-t);
                         }
+                        if t >= 0.03 && t <= g.width - 0.03 {
+                            let slice =
+                                ((t / g.width * slices[k] as f64) as usize).min(slices[k] - 1);
+                            let bin = (((z - low.0) / WALLED_BIN) as usize).min(bins - 1);
+                            seen.low[k][slice] |= 1 << bin;
+                        }
                     }
                     continue;
                 }
@@ -388,6 +409,12 @@ pub(crate) fn lintels(
                 g.jambs = Some([s, e]);
             }
         }
+        // A slice is walled when points stand in most of its height bins.
+        let walled = walls[k]
+            .iter()
+            .filter(|m| 2 * m.count_ones() as usize > bins)
+            .count();
+        g.walled = walled as f64 >= WALLED_SHARE * slices[k] as f64;
         let filled = hit[k].iter().filter(|h| **h).count() as f64 / slices[k] as f64;
         g.lintel = filled >= params.lintel_coverage;
         if g.lintel {
@@ -408,6 +435,11 @@ const JAMB_SEARCH: f64 = 0.2;
 /// The jamb is the third point nearest the gap, so one or two stray points in the doorway do
 /// not move it.
 const JAMB_RANK: usize = 3;
+/// Height bins under the door height in which a gap's wall points are counted, metres.
+const WALLED_BIN: f64 = 0.2;
+/// A gap is walled when this share of its 10 cm slices are: an open door leaf or a plan's jamb
+/// a cell off fills a slice or two at its ends, never most of a door's width.
+const WALLED_SHARE: f64 = 0.8;
 
 /// What the points over and beside the gaps showed, per gap.
 struct Seen {
@@ -417,6 +449,9 @@ struct Seen {
     heights: Vec<Vec<f64>>,
     /// The wall's points under the door height nearest the gap on either side.
     near_jamb: Vec<[Nearest; 2]>,
+    /// Per 10 cm slice along the gap: the height bins under the door height holding a point
+    /// within the wall's thickness, as bits.
+    low: Vec<Vec<u32>>,
 }
 
 impl Seen {
@@ -426,6 +461,9 @@ impl Seen {
         }
         for (a, b) in self.heights.iter_mut().zip(other.heights) {
             a.extend(b);
+        }
+        for (a, b) in self.low.iter_mut().zip(other.low) {
+            a.iter_mut().zip(b).for_each(|(x, y)| *x |= y);
         }
         for (a, b) in self.near_jamb.iter_mut().zip(other.near_jamb) {
             for (x, y) in a.iter_mut().zip(b) {

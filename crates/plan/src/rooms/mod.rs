@@ -227,6 +227,12 @@ pub fn find_rooms(
     let seen = !points.xyz.is_empty();
     if seen {
         gaps::lintels(&mut candidates, story, points, params);
+        let walled = candidates.iter().filter(|g| g.walled && !g.crack).count();
+        if walled > 0 {
+            out.notes.push(format!(
+                "rooms: {walled} gap(s) in the plan's walls closed where the points show the wall standing"
+            ));
+        }
     } else if !candidates.is_empty() {
         out.notes
             .push("rooms: no points held to look for lintels; every gap is taken as a door, its jambs the plan's faces".into());
