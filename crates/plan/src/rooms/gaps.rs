@@ -332,12 +332,16 @@ pub(crate) fn lintels(
         .map(|g| ((g.width / 0.1).ceil() as usize).max(1))
         .collect();
     let low = (story.floor_z + JAMB_ABOVE_FLOOR, z0);
+    // Outward, past the plan's jamb, the points' jamb is looked for as far as a crack reaches:
+    // a sliver or island of plan standing in a doorway leaves a crack behind it, and the
+    // doorway's real jamb lies beyond both.
+    let beyond = params.min_door_width.max(JAMB_SEARCH);
     let bins = (((low.1 - low.0) / WALLED_BIN).ceil() as usize).clamp(1, 32);
     let boxes: Vec<[f64; 4]> = gaps
         .iter()
         .map(|g| {
             let mut wide = g.clone();
-            wide.reach = [JAMB_SEARCH; 2];
+            wide.reach = [beyond; 2];
             ring_box(&wide.rect())
         })
         .collect();
@@ -371,10 +375,7 @@ pub(crate) fn lintels(
                 let d = geom::sub(p, g.a);
                 let (t, s) = (geom::dot(d, g.u), geom::dot(d, g.left()));
                 if !over {
-                    if s.abs() <= g.depth / 2.0 + 0.02
-                        && t > -JAMB_SEARCH
-                        && t < g.width + JAMB_SEARCH
-                    {
+                    if s.abs() <= g.depth / 2.0 + 0.02 && t > -beyond && t < g.width + beyond {
                         if t < g.width / 2.0 {
                             seen.near_jamb[k][0].offer(t);
                         } else {
@@ -404,8 +405,15 @@ pub(crate) fn lintels(
     for (k, g) in gaps.iter_mut().enumerate() {
         if let [Some(s), Some(e)] = near_jamb[k].map(|n| n.value()) {
             let e = -e;
-            // Trust the points only near the plan's faces: farther, they are something else.
-            if s.abs() <= JAMB_SEARCH && (e - g.width).abs() <= JAMB_SEARCH && e > s {
+            // Inside the plan's gap, trust the points only near its faces: farther in, they
+            // are something in the doorway. Outward, the plan's jamb may be what is wrong.
+            if s <= JAMB_SEARCH
+                && e >= g.width - JAMB_SEARCH
+                && s >= -beyond
+                && e <= g.width + beyond
+                && e > s
+                && e - s <= params.max_door_width
+            {
                 g.jambs = Some([s, e]);
             }
         }
@@ -429,8 +437,8 @@ pub(crate) fn lintels(
 /// Wall points this far above the floor and under the door height show the jambs: the floor's
 /// own points lie lower.
 const JAMB_ABOVE_FLOOR: f64 = 0.3;
-/// How far from the plan's jamb the points' jamb is looked for, metres: the plan's faces stand
-/// a cell or so off, and a voxel grid's faces up to a voxel and a half.
+/// How far inside the plan's gap from its jamb the points' jamb is looked for, metres: the
+/// plan's faces stand a cell or so off, and a voxel grid's faces up to a voxel and a half.
 const JAMB_SEARCH: f64 = 0.2;
 /// The jamb is the third point nearest the gap, so one or two stray points in the doorway do
 /// not move it.

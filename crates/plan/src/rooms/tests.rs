@@ -115,19 +115,16 @@ fn two_rooms_joined_by_one_door() {
     assert!(s.walls.iter().any(|w| w.exterior));
 }
 
-/// The wall between two rooms, 10 cm thick, as points on its two faces every 5 cm from the
-/// floor to the lintel over `y0..y1`.
+/// A wall along y at `x` (its two faces), as points about every 5 cm from `y0` to `y1` and
+/// from the floor to 2.1 m.
 fn wall_points(x: [f64; 2], y0: f64, y1: f64) -> Vec<[f32; 3]> {
     let mut out = Vec::new();
-    let (n, m) = (((y1 - y0) / 0.05) as usize, 42);
-    for i in 0..n {
-        for k in 0..m {
+    let n = ((y1 - y0) / 0.05).round() as usize;
+    for i in 0..=n {
+        for k in 0..42 {
             for x in x {
-                out.push([
-                    x as f32,
-                    (y0 + 0.05 * i as f64 + 0.025) as f32,
-                    (0.025 + 0.05 * k as f64) as f32,
-                ]);
+                let y = y0 + (y1 - y0) * i as f64 / n as f64;
+                out.push([x as f32, y as f32, (0.025 + 0.05 * k as f64) as f32]);
             }
         }
     }
@@ -153,6 +150,31 @@ fn a_gap_where_the_points_show_the_wall_standing_is_no_door() {
         out.notes.iter().any(|n| n.contains("1 gap(s)")),
         "{:?}",
         out.notes
+    );
+}
+
+/// A 0.9 m door with a sliver of plan standing in it, 15 cm from its south jamb, that no point
+/// shows: from the north jamb the plan's gap is 0.6 m, up to the sliver. The wall's points put
+/// the south jamb beyond the sliver and the crack behind it, so the door is 0.9 m wide.
+#[test]
+fn a_sliver_of_plan_in_a_doorway_does_not_narrow_the_door() {
+    let (plan, mut points) = story(
+        &[Rect::new(0.0, 0.0, 4.0, 3.0), Rect::new(4.1, 0.0, 8.0, 3.0)],
+        &[Rect::new(4.0, 1.0, 4.1, 1.9)],
+        &[Rect::new(4.0, 1.15, 4.1, 1.3)],
+        true,
+    );
+    points.extend(wall_points([4.0, 4.1], 0.5, 1.0));
+    points.extend(wall_points([4.0, 4.1], 1.9, 2.4));
+    let out = run(&plan, &points, &[]);
+    assert_eq!(areas(&out).len(), 2, "{:?}", out.spaces.rooms);
+    let d = &out.spaces.doors;
+    assert_eq!(d.len(), 1, "{d:?}");
+    assert!((d[0].width - 0.9).abs() < 1e-6, "{d:?}");
+    let c = [(d[0].a[0] + d[0].b[0]) / 2.0, (d[0].a[1] + d[0].b[1]) / 2.0];
+    assert!(
+        (c[0] - 4.05).abs() < 1e-6 && (c[1] - 1.45).abs() < 1e-6,
+        "{c:?}"
     );
 }
 
