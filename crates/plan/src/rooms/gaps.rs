@@ -309,7 +309,9 @@ fn cast(origin: P2, dir: P2, faces: &[Face], max: f64) -> Option<(f64, f64, Opti
 /// a point between `min_head_height` above the floor and `ceiling_margin` under the ceiling.
 /// Also looks under the door height: where the wall's points stand across nearly all of the
 /// gap, the plan lost a stretch of wall there (a face's samples too sparse for a model), and
-/// the gap is walled.
+/// the gap is walled. A lintel hangs under the ceiling on both sides of the gap, which may be
+/// lower than the story's (a corridor's dropped ceiling): beside the gap it is the highest
+/// points seen there.
 pub(crate) fn lintels(
     gaps: &mut [Gap],
     story: &StoryPlan,
@@ -337,36 +339,42 @@ pub(crate) fn lintels(
     // doorway's real jamb lies beyond both.
     let beyond = params.min_door_width.max(JAMB_SEARCH);
     let bins = (((low.1 - low.0) / WALLED_BIN).ceil() as usize).clamp(1, 32);
+    // Ceiling points beside a gap are read up to a little over the story's ceiling.
+    let top = story.ceiling_z + params.ceiling_margin;
     let boxes: Vec<[f64; 4]> = gaps
         .iter()
         .map(|g| {
             let mut wide = g.clone();
             wide.reach = [beyond; 2];
+            wide.depth = g.depth + 2.0 * BESIDE.1;
             ring_box(&wide.rect())
         })
         .collect();
     let index = BoxIndex::new(&boxes);
     let empty = || Seen {
-        hit: slices.iter().map(|&n| vec![false; n]).collect(),
+        lowest: slices.iter().map(|&n| vec![f64::INFINITY; n]).collect(),
         heights: vec![Vec::new(); gaps.len()],
         near_jamb: vec![[Nearest::default(); 2]; gaps.len()],
         low: slices.iter().map(|&n| vec![0; n]).collect(),
+        ceiling: vec![[Nearest::default(); 2]; gaps.len()],
     };
     // A very dense cloud is read in a stride: lintels stay well covered. Both cores read a
     // share each; what they saw merges the same in any order.
     let stride = (points.xyz.len() / 8_000_000).max(1);
     let Seen {
-        hit,
+        lowest,
         mut heights,
         near_jamb,
         low: walls,
+        ceiling,
     } = points.fold(
         stride,
         empty,
         |mut seen, q| {
             let z = q[2] as f64;
             let over = (z0..z1).contains(&z);
-            if !over && !(low.0..low.1).contains(&z) {
+            let high = (z0..top).contains(&z);
+            if !high && !(low.0..low.1).contains(&z) {
                 return seen;
             }
             let p = [q[0] as f64, q[1] as f64];
@@ -374,7 +382,17 @@ pub(crate) fn lintels(
                 let g = &gaps[k];
                 let d = geom::sub(p, g.a);
                 let (t, s) = (geom::dot(d, g.u), geom::dot(d, g.left()));
-                if !over {
+                if high {
+                    // Over the gap's middle half, a strip of floor on either side.
+                    let off = s.abs() - g.depth / 2.0;
+                    let middle = (0.25 * g.width..=0.75 * g.width).contains(&t);
+                    if middle && (BESIDE.0..=BESIDE.1).contains(&off) {
+                        seen.ceiling[k][usize::from(s < 0.0)].offer(z);
+                    }
+                    if !over {
+                        continue;
+                    }
+                } else {
                     if s.abs() <= g.depth / 2.0 + 0.02 && t > -beyond && t < g.width + beyond {
                         if t < g.width / 2.0 {
                             seen.near_jamb[k][0].offer(t);
@@ -395,7 +413,7 @@ pub(crate) fn lintels(
                     continue;
                 }
                 let slice = ((t / g.width * slices[k] as f64) as usize).min(slices[k] - 1);
-                seen.hit[k][slice] = true;
+                seen.lowest[k][slice] = seen.lowest[k][slice].min(z);
                 seen.heights[k].push(z);
             }
             seen
@@ -423,7 +441,12 @@ pub(crate) fn lintels(
             .filter(|m| 2 * m.count_ones() as usize > bins)
             .count();
         g.walled = walled as f64 >= WALLED_SHARE * slices[k] as f64;
-        let filled = hit[k].iter().filter(|h| **h).count() as f64 / slices[k] as f64;
+        // The lower of the two ceilings beside the gap, where seen; a lintel is below it.
+        let under = ceiling[k]
+            .iter()
+            .filter_map(Nearest::value)
+            .fold(z1, |u, c| u.min(c - params.ceiling_margin));
+        let filled = lowest[k].iter().filter(|&&z| z < under).count() as f64 / slices[k] as f64;
         g.lintel = filled >= params.lintel_coverage;
         if g.lintel {
             let h = &mut heights[k];
@@ -443,6 +466,9 @@ const JAMB_SEARCH: f64 = 0.2;
 /// The jamb is the third point nearest the gap, so one or two stray points in the doorway do
 /// not move it.
 const JAMB_RANK: usize = 3;
+/// The strip of floor on either side of a gap whose highest points are the ceiling there, as
+/// distances from the wall's face, metres: clear of the jambs' and lintel's own faces.
+const BESIDE: (f64, f64) = (0.3, 0.8);
 /// Height bins under the door height in which a gap's wall points are counted, metres.
 const WALLED_BIN: f64 = 0.2;
 /// A gap is walled when this share of its 10 cm slices are: an open door leaf or a plan's jamb
@@ -451,8 +477,8 @@ const WALLED_SHARE: f64 = 0.8;
 
 /// What the points over and beside the gaps showed, per gap.
 struct Seen {
-    /// Per 10 cm slice along the gap: a point over it.
-    hit: Vec<Vec<bool>>,
+    /// Per 10 cm slice along the gap: the lowest point over it.
+    lowest: Vec<Vec<f64>>,
     /// The heights of the points over it.
     heights: Vec<Vec<f64>>,
     /// The wall's points under the door height nearest the gap on either side.
@@ -460,12 +486,14 @@ struct Seen {
     /// Per 10 cm slice along the gap: the height bins under the door height holding a point
     /// within the wall's thickness, as bits.
     low: Vec<Vec<u32>>,
+    /// The highest points beside the gap's middle, on its left and on its right.
+    ceiling: Vec<[Nearest; 2]>,
 }
 
 impl Seen {
     fn merge(mut self, other: Seen) -> Seen {
-        for (a, b) in self.hit.iter_mut().zip(other.hit) {
-            a.iter_mut().zip(b).for_each(|(x, y)| *x |= y);
+        for (a, b) in self.lowest.iter_mut().zip(other.lowest) {
+            a.iter_mut().zip(b).for_each(|(x, y)| *x = x.min(y));
         }
         for (a, b) in self.heights.iter_mut().zip(other.heights) {
             a.extend(b);
@@ -473,7 +501,12 @@ impl Seen {
         for (a, b) in self.low.iter_mut().zip(other.low) {
             a.iter_mut().zip(b).for_each(|(x, y)| *x |= y);
         }
-        for (a, b) in self.near_jamb.iter_mut().zip(other.near_jamb) {
+        for (a, b) in self
+            .near_jamb
+            .iter_mut()
+            .zip(other.near_jamb)
+            .chain(self.ceiling.iter_mut().zip(other.ceiling))
+        {
             for (x, y) in a.iter_mut().zip(b) {
                 y.top[..y.n].iter().for_each(|&v| x.offer(v));
             }

@@ -9,7 +9,8 @@
 //!    exterior walls of an assumed thickness.
 //! 3. `gaps`: from each end of a paired wall, along its centre line, the free floor up to the
 //!    next face is a gap (a door's width apart); the points over it tell a door (wall above,
-//!    a lintel) from an opening (nothing between the door height and the ceiling).
+//!    a lintel) from an opening (nothing between the door height and the ceiling), and a gap
+//!    the points show walled under the door height (a stretch of wall the plan lost) from both.
 //! 4. `segment`: the gaps cut the free floor; what falls apart are the rooms. A door that
 //!    separates nothing (free floor goes around it, as between a column and a wall) is no door
 //!    and its cut is undone; an opening stays only when both sides are rooms of their own.

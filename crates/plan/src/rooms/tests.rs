@@ -178,6 +178,39 @@ fn a_sliver_of_plan_in_a_doorway_does_not_narrow_the_door() {
     );
 }
 
+/// Two rooms and a gap with something over it at 2.1 m, under ceilings at `ceiling` m seen as
+/// points every 10 cm over both rooms.
+fn under_ceiling(ceiling: f64) -> RoomsOutcome {
+    let (plan, mut points) = story(
+        &[Rect::new(0.0, 0.0, 4.0, 3.0), Rect::new(4.1, 0.0, 8.0, 3.0)],
+        &[Rect::new(4.0, 1.0, 4.1, 1.9)],
+        &[],
+        true,
+    );
+    for i in 0..80 {
+        for j in 0..30 {
+            let (x, y) = (0.05 + 0.1 * i as f64, 0.05 + 0.1 * j as f64);
+            points.push([x as f32, y as f32, ceiling as f32]);
+        }
+    }
+    run(&plan, &points, &[])
+}
+
+/// A corridor's dropped ceiling at 2.15 m runs on over the gap at the same height on both
+/// sides: nothing hangs under it, so the gap is an opening. Under the story's 2.6 m ceiling,
+/// the same points over the gap are a lintel.
+#[test]
+fn a_ceiling_as_low_on_both_sides_is_no_lintel() {
+    let low = under_ceiling(2.15);
+    assert_eq!(low.spaces.rooms.len(), 2);
+    assert_eq!(low.spaces.doors.len(), 1, "{:?}", low.spaces.doors);
+    assert_eq!(low.spaces.doors[0].kind, DoorKind::Opening);
+    let high = under_ceiling(2.6);
+    assert_eq!(high.spaces.doors.len(), 1, "{:?}", high.spaces.doors);
+    assert_eq!(high.spaces.doors[0].kind, DoorKind::Door);
+    assert!((high.spaces.doors[0].head_z.expect("a lintel") - 2.1).abs() < 1e-6);
+}
+
 /// A door whose leaf stands open against the east room's side of the wall, hinged at the
 /// south jamb: its points lie within the wall's thickness only at that jamb, so it is a door.
 #[test]
