@@ -496,20 +496,26 @@ fn dense_office_as_8_cm_voxels_plans_at_a_coarser_cell() {
     assert!(with.max_height_error() <= 0.045, "{}", with.summary());
     // Rooms: every room found on each story, none more (a partition's end beside a door, flush
     // with the corridor's face, split the corridor on level 1), and the doors: a partition's end
-    // at a T junction no longer faces the corridor through a crack (was recall 0.07).
-    for (level, story) in with.stories.iter().enumerate() {
-        let r = story.rooms.as_ref().expect("the truth has rooms");
-        let line = r.summary();
-        assert_eq!(r.matched(), r.truth_rooms, "level {level}: rooms\n{line}");
-        assert_eq!(r.plan_rooms, r.truth_rooms, "level {level}\n{line}");
-        assert!(
-            r.door_recall() >= 0.95,
-            "level {level}: door recall\n{line}"
-        );
-        assert!(
-            r.door_precision() >= 0.9,
-            "level {level}: door precision\n{line}"
-        );
+    // at a T junction no longer faces the corridor through a crack (was recall 0.07); a stretch
+    // of corridor wall the plan lost, standing in the points, is no door (precision 0.966 on
+    // level 1). Areas and wall thickness are held to nothing here: faces on voxel centres
+    // leave 15 of 31 rooms outside the area bound and 10 cm walls 8 or 16 cm thick, exactly as
+    // the lattice allows (benches/voxel_rooms_ideal.py).
+    for (mode, e) in [("with poses", &with), ("without", &without)] {
+        for (level, story) in e.stories.iter().enumerate() {
+            let r = story.rooms.as_ref().expect("the truth has rooms");
+            let line = r.summary();
+            assert_eq!(
+                r.matched(),
+                r.truth_rooms,
+                "{mode} level {level}: rooms\n{line}"
+            );
+            assert_eq!(r.plan_rooms, r.truth_rooms, "{mode} level {level}\n{line}");
+            assert!(
+                r.door_recall() >= 0.95 && r.door_precision() >= 0.95,
+                "{mode} level {level}: doors\n{line}"
+            );
+        }
     }
     // Without poses or scan ids the plan rests on pseudo-viewpoints in open space: IoU 0.90
     // (geometry alone) became 0.97 and p95 0.44 m became 4 cm; completeness 0.79, then 0.92

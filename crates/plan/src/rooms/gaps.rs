@@ -35,6 +35,9 @@ pub(crate) struct Gap {
     /// Both jambs are ends of one straight wall of one thickness: a doorway in that wall, a
     /// door even where the floor goes around the wall's far end.
     pub in_wall: bool,
+    /// The points show the wall standing across the gap under the door height (see
+    /// [`lintels`]): a stretch of wall the plan lost, closed like a crack and never a door.
+    pub walled: bool,
 }
 
 impl Gap {
@@ -69,6 +72,11 @@ impl Gap {
             ),
             None => (self.a, self.b, self.width),
         }
+    }
+
+    /// Always cut and never a door: a crack, or a stretch of wall the plan lost.
+    pub fn closed(&self) -> bool {
+        self.crack || self.walled
     }
 
     /// Points just beyond either face at the gap's middle: in the two rooms it joins.
@@ -224,6 +232,7 @@ fn cast_gap(
         reach: [0.05, 0.05],
         jambs: None,
         in_wall: false,
+        walled: false,
     };
     // A crack is free floor between the wall's end and the face; solid there is a wall meeting
     // another, nothing to close.
@@ -298,6 +307,11 @@ fn cast(origin: P2, dir: P2, faces: &[Face], max: f64) -> Option<(f64, f64, Opti
 
 /// Looks at the points over each gap: a lintel when enough 10 cm slices along its width hold
 /// a point between `min_head_height` above the floor and `ceiling_margin` under the ceiling.
+/// Also looks under the door height: where the wall's points stand across nearly all of the
+/// gap, the plan lost a stretch of wall there (a face's samples too sparse for a model), and
+/// the gap is walled. A lintel hangs under the ceiling on both sides of the gap, which may be
+/// lower than the story's (a corridor's dropped ceiling): beside the gap it is the highest
+/// points seen there.
 pub(crate) fn lintels(
     gaps: &mut [Gap],
     story: &StoryPlan,
@@ -320,34 +334,47 @@ pub(crate) fn lintels(
         .map(|g| ((g.width / 0.1).ceil() as usize).max(1))
         .collect();
     let low = (story.floor_z + JAMB_ABOVE_FLOOR, z0);
+    // Outward, past the plan's jamb, the points' jamb is looked for as far as a crack reaches:
+    // a sliver or island of plan standing in a doorway leaves a crack behind it, and the
+    // doorway's real jamb lies beyond both.
+    let beyond = params.min_door_width.max(JAMB_SEARCH);
+    let bins = (((low.1 - low.0) / WALLED_BIN).ceil() as usize).clamp(1, 32);
+    // Ceiling points beside a gap are read up to a little over the story's ceiling.
+    let top = story.ceiling_z + params.ceiling_margin;
     let boxes: Vec<[f64; 4]> = gaps
         .iter()
         .map(|g| {
             let mut wide = g.clone();
-            wide.reach = [JAMB_SEARCH; 2];
+            wide.reach = [beyond; 2];
+            wide.depth = g.depth + 2.0 * BESIDE.1;
             ring_box(&wide.rect())
         })
         .collect();
     let index = BoxIndex::new(&boxes);
     let empty = || Seen {
-        hit: slices.iter().map(|&n| vec![false; n]).collect(),
+        lowest: slices.iter().map(|&n| vec![f64::INFINITY; n]).collect(),
         heights: vec![Vec::new(); gaps.len()],
         near_jamb: vec![[Nearest::default(); 2]; gaps.len()],
+        low: slices.iter().map(|&n| vec![0; n]).collect(),
+        ceiling: vec![[Nearest::default(); 2]; gaps.len()],
     };
     // A very dense cloud is read in a stride: lintels stay well covered. Both cores read a
     // share each; what they saw merges the same in any order.
     let stride = (points.xyz.len() / 8_000_000).max(1);
     let Seen {
-        hit,
+        lowest,
         mut heights,
         near_jamb,
+        low: walls,
+        ceiling,
     } = points.fold(
         stride,
         empty,
         |mut seen, q| {
             let z = q[2] as f64;
             let over = (z0..z1).contains(&z);
-            if !over && !(low.0..low.1).contains(&z) {
+            let high = (z0..top).contains(&z);
+            if !high && !(low.0..low.1).contains(&z) {
                 return seen;
             }
             let p = [q[0] as f64, q[1] as f64];
@@ -355,15 +382,28 @@ pub(crate) fn lintels(
                 let g = &gaps[k];
                 let d = geom::sub(p, g.a);
                 let (t, s) = (geom::dot(d, g.u), geom::dot(d, g.left()));
-                if !over {
-                    if s.abs() <= g.depth / 2.0 + 0.02
-                        && t > -JAMB_SEARCH
-                        && t < g.width + JAMB_SEARCH
-                    {
+                if high {
+                    // Over the gap's middle half, a strip of floor on either side.
+                    let off = s.abs() - g.depth / 2.0;
+                    let middle = (0.25 * g.width..=0.75 * g.width).contains(&t);
+                    if middle && (BESIDE.0..=BESIDE.1).contains(&off) {
+                        seen.ceiling[k][usize::from(s < 0.0)].offer(z);
+                    }
+                    if !over {
+                        continue;
+                    }
+                } else {
+                    if s.abs() <= g.depth / 2.0 + 0.02 && t > -beyond && t < g.width + beyond {
                         if t < g.width / 2.0 {
                             seen.near_jamb[k][0].offer(t);
                         } else {
                             seen.near_jamb[k][1].offer(-t);
+                        }
+                        if t >= 0.03 && t <= g.width - 0.03 {
+                            let slice =
+                                ((t / g.width * slices[k] as f64) as usize).min(slices[k] - 1);
+                            let bin = (((z - low.0) / WALLED_BIN) as usize).min(bins - 1);
+                            seen.low[k][slice] |= 1 << bin;
                         }
                     }
                     continue;
@@ -373,7 +413,7 @@ pub(crate) fn lintels(
                     continue;
                 }
                 let slice = ((t / g.width * slices[k] as f64) as usize).min(slices[k] - 1);
-                seen.hit[k][slice] = true;
+                seen.lowest[k][slice] = seen.lowest[k][slice].min(z);
                 seen.heights[k].push(z);
             }
             seen
@@ -383,12 +423,30 @@ pub(crate) fn lintels(
     for (k, g) in gaps.iter_mut().enumerate() {
         if let [Some(s), Some(e)] = near_jamb[k].map(|n| n.value()) {
             let e = -e;
-            // Trust the points only near the plan's faces: farther, they are something else.
-            if s.abs() <= JAMB_SEARCH && (e - g.width).abs() <= JAMB_SEARCH && e > s {
+            // Inside the plan's gap, trust the points only near its faces: farther in, they
+            // are something in the doorway. Outward, the plan's jamb may be what is wrong.
+            if s <= JAMB_SEARCH
+                && e >= g.width - JAMB_SEARCH
+                && s >= -beyond
+                && e <= g.width + beyond
+                && e > s
+                && e - s <= params.max_door_width
+            {
                 g.jambs = Some([s, e]);
             }
         }
-        let filled = hit[k].iter().filter(|h| **h).count() as f64 / slices[k] as f64;
+        // A slice is walled when points stand in most of its height bins.
+        let walled = walls[k]
+            .iter()
+            .filter(|m| 2 * m.count_ones() as usize > bins)
+            .count();
+        g.walled = walled as f64 >= WALLED_SHARE * slices[k] as f64;
+        // The lower of the two ceilings beside the gap, where seen; a lintel is below it.
+        let under = ceiling[k]
+            .iter()
+            .filter_map(Nearest::value)
+            .fold(z1, |u, c| u.min(c - params.ceiling_margin));
+        let filled = lowest[k].iter().filter(|&&z| z < under).count() as f64 / slices[k] as f64;
         g.lintel = filled >= params.lintel_coverage;
         if g.lintel {
             let h = &mut heights[k];
@@ -402,32 +460,53 @@ pub(crate) fn lintels(
 /// Wall points this far above the floor and under the door height show the jambs: the floor's
 /// own points lie lower.
 const JAMB_ABOVE_FLOOR: f64 = 0.3;
-/// How far from the plan's jamb the points' jamb is looked for, metres: the plan's faces stand
-/// a cell or so off, and a voxel grid's faces up to a voxel and a half.
+/// How far inside the plan's gap from its jamb the points' jamb is looked for, metres: the
+/// plan's faces stand a cell or so off, and a voxel grid's faces up to a voxel and a half.
 const JAMB_SEARCH: f64 = 0.2;
 /// The jamb is the third point nearest the gap, so one or two stray points in the doorway do
 /// not move it.
 const JAMB_RANK: usize = 3;
+/// The strip of floor on either side of a gap whose highest points are the ceiling there, as
+/// distances from the wall's face, metres: clear of the jambs' and lintel's own faces.
+const BESIDE: (f64, f64) = (0.3, 0.8);
+/// Height bins under the door height in which a gap's wall points are counted, metres.
+const WALLED_BIN: f64 = 0.2;
+/// A gap is walled when this share of its 10 cm slices are: an open door leaf or a plan's jamb
+/// a cell off fills a slice or two at its ends, never most of a door's width.
+const WALLED_SHARE: f64 = 0.8;
 
 /// What the points over and beside the gaps showed, per gap.
 struct Seen {
-    /// Per 10 cm slice along the gap: a point over it.
-    hit: Vec<Vec<bool>>,
+    /// Per 10 cm slice along the gap: the lowest point over it.
+    lowest: Vec<Vec<f64>>,
     /// The heights of the points over it.
     heights: Vec<Vec<f64>>,
     /// The wall's points under the door height nearest the gap on either side.
     near_jamb: Vec<[Nearest; 2]>,
+    /// Per 10 cm slice along the gap: the height bins under the door height holding a point
+    /// within the wall's thickness, as bits.
+    low: Vec<Vec<u32>>,
+    /// The highest points beside the gap's middle, on its left and on its right.
+    ceiling: Vec<[Nearest; 2]>,
 }
 
 impl Seen {
     fn merge(mut self, other: Seen) -> Seen {
-        for (a, b) in self.hit.iter_mut().zip(other.hit) {
-            a.iter_mut().zip(b).for_each(|(x, y)| *x |= y);
+        for (a, b) in self.lowest.iter_mut().zip(other.lowest) {
+            a.iter_mut().zip(b).for_each(|(x, y)| *x = x.min(y));
         }
         for (a, b) in self.heights.iter_mut().zip(other.heights) {
             a.extend(b);
         }
-        for (a, b) in self.near_jamb.iter_mut().zip(other.near_jamb) {
+        for (a, b) in self.low.iter_mut().zip(other.low) {
+            a.iter_mut().zip(b).for_each(|(x, y)| *x |= y);
+        }
+        for (a, b) in self
+            .near_jamb
+            .iter_mut()
+            .zip(other.near_jamb)
+            .chain(self.ceiling.iter_mut().zip(other.ceiling))
+        {
             for (x, y) in a.iter_mut().zip(b) {
                 y.top[..y.n].iter().for_each(|&v| x.offer(v));
             }

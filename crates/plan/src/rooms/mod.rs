@@ -9,7 +9,8 @@
 //!    exterior walls of an assumed thickness.
 //! 3. `gaps`: from each end of a paired wall, along its centre line, the free floor up to the
 //!    next face is a gap (a door's width apart); the points over it tell a door (wall above,
-//!    a lintel) from an opening (nothing between the door height and the ceiling).
+//!    a lintel) from an opening (nothing between the door height and the ceiling), and a gap
+//!    the points show walled under the door height (a stretch of wall the plan lost) from both.
 //! 4. `segment`: the gaps cut the free floor; what falls apart are the rooms. A door that
 //!    separates nothing (free floor goes around it, as between a column and a wall) is no door
 //!    and its cut is undone; an opening stays only when both sides are rooms of their own.
@@ -227,6 +228,12 @@ pub fn find_rooms(
     let seen = !points.xyz.is_empty();
     if seen {
         gaps::lintels(&mut candidates, story, points, params);
+        let walled = candidates.iter().filter(|g| g.walled && !g.crack).count();
+        if walled > 0 {
+            out.notes.push(format!(
+                "rooms: {walled} gap(s) in the plan's walls closed where the points show the wall standing"
+            ));
+        }
     } else if !candidates.is_empty() {
         out.notes
             .push("rooms: no points held to look for lintels; every gap is taken as a door, its jambs the plan's faces".into());

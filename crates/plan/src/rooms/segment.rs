@@ -98,7 +98,7 @@ pub(crate) struct Divided {
 /// Cuts the floor at the gaps that divide it: every gap with a lintel that ends up between two
 /// different rooms, and every opening that alone splits its room into two of at least
 /// `min_opening_room_area`. A doorway in a wall that divides nothing is a door all the same,
-/// uncut.
+/// uncut. Cracks and walled gaps are always cut, and are never doors.
 pub(crate) fn divide(
     polygons: &[Polygon],
     gaps: &[Gap],
@@ -125,12 +125,12 @@ pub(crate) fn divide(
         |pieces: &[Polygon], g: &Gap| matches!(sides(pieces, g), [Some(l), Some(r)] if l != r);
     // Doors: all at once (a room with two doors to one corridor needs both cut), then those
     // with the same piece on both sides are undone.
-    let mut kept: Vec<bool> = gaps.iter().map(|g| g.lintel || g.crack).collect();
+    let mut kept: Vec<bool> = gaps.iter().map(|g| g.lintel || g.closed()).collect();
     let mut pieces = cut(&kept)?;
     for _ in 0..4 {
         let before = kept.clone();
         for (k, g) in gaps.iter().enumerate() {
-            if kept[k] && !g.crack && !divides(&pieces, g) {
+            if kept[k] && !g.closed() && !divides(&pieces, g) {
                 kept[k] = false;
             }
         }
@@ -142,7 +142,7 @@ pub(crate) fn divide(
     let doors = kept.clone();
     // Openings: one at a time, kept when both sides are rooms of their own.
     for (k, g) in gaps.iter().enumerate() {
-        if g.lintel || g.crack {
+        if g.lintel || g.closed() {
             continue;
         }
         let mut trial = kept.clone();
@@ -164,9 +164,9 @@ pub(crate) fn divide(
         .zip(gaps)
         .map(|((&k, &door), g)| match (k, door) {
             // A doorway in a wall the floor goes around: a door, though it divides nothing.
-            (false, _) if g.lintel && g.in_wall && !g.crack => Some(DoorKind::Door),
+            (false, _) if g.lintel && g.in_wall && !g.closed() => Some(DoorKind::Door),
             (false, _) => None,
-            _ if g.crack => None,
+            _ if g.closed() => None,
             (true, true) => Some(DoorKind::Door),
             (true, false) => Some(DoorKind::Opening),
         })
