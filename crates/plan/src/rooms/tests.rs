@@ -43,7 +43,10 @@ fn story(
 fn run(plan: &StoryPlan, points: &[[f32; 3]], scanners: &[Scanner]) -> RoomsOutcome {
     let out = find_rooms(
         plan,
-        &StoryPoints { xyz: points },
+        &StoryPoints {
+            xyz: points,
+            blocks: None,
+        },
         scanners,
         &RoomsParams::default(),
         &Grid::local(),
@@ -396,7 +399,10 @@ fn nothing_in_nothing_out() {
     let plan = StoryPlan::default();
     let out = find_rooms(
         &plan,
-        &StoryPoints { xyz: &[] },
+        &StoryPoints {
+            xyz: &[],
+            blocks: None,
+        },
         &[],
         &RoomsParams::default(),
         &Grid::local(),
