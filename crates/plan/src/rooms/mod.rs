@@ -213,23 +213,28 @@ impl StoryPoints<'_> {
             Some(b) => b.spans_within(z),
             None => vec![0..n],
         };
-        // The same points as a stride over the whole cloud: multiples of `stride`.
-        let shares: Vec<Range<usize>> = spans
-            .into_iter()
-            .flat_map(|r| {
-                let (start, end) = (r.start.div_ceil(stride) * stride, r.end.min(n));
-                (start..end)
-                    .step_by(SHARE * stride)
-                    .map(move |s| s..(s + SHARE * stride).min(end))
-            })
-            .collect();
-        shares
+        shares(&spans, stride, n)
             .into_par_iter()
             .fold(&empty, |acc, r| {
                 r.step_by(stride).fold(acc, |acc, k| add(acc, &self.xyz[k]))
             })
             .reduce(&empty, merge)
     }
+}
+
+/// `spans` (in order) cut into shares of at most [`SHARE`] strides, each starting on a multiple
+/// of `stride` and ending by `n`: their `step_by(stride)` visit the multiples of `stride` in
+/// `spans`, the points a stride over the whole cloud visits there.
+fn shares(spans: &[Range<usize>], stride: usize, n: usize) -> Vec<Range<usize>> {
+    spans
+        .iter()
+        .flat_map(|r| {
+            let (start, end) = (r.start.div_ceil(stride) * stride, r.end.min(n));
+            (start..end)
+                .step_by(SHARE * stride)
+                .map(move |s| s..(s + SHARE * stride).min(end))
+        })
+        .collect()
 }
 
 /// Divides `story`'s free floor into rooms, finds its doors, openings and windows, and pairs
