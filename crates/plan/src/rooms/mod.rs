@@ -211,7 +211,7 @@ impl StoryPoints<'_> {
         let n = self.xyz.len();
         let spans = match self.blocks {
             Some(b) => b.spans_within(z),
-            None => vec![0..n],
+            None => std::iter::once(0..n).collect(),
         };
         shares(&spans, stride, n)
             .into_par_iter()
