@@ -45,6 +45,36 @@ fn floor_i64(x: f64) -> i64 {
     t.saturating_sub(i64::from(t as f64 > x))
 }
 
+/// Points whose cube keys are found together, a coordinate at a time in 32-bit lanes.
+const LANES: usize = 8;
+
+/// [`cube_key`] of each of `LANES` points, when every coordinate is within ±2e9 m (so finite,
+/// and its floor fits an `i32`); `None` otherwise. Each coordinate's floor is its truncation,
+/// one less when that rounded up; both are exact in `f32` (a value from 2^24 on is whole).
+fn lane_keys(pts: &[[f32; 3]]) -> Option<[u64; LANES]> {
+    let mut c = [[0f32; LANES]; 3];
+    let mut small = true;
+    for (k, p) in pts.iter().enumerate() {
+        for a in 0..3 {
+            c[a][k] = p[a];
+            small &= p[a].abs() < 2e9;
+        }
+    }
+    if !small {
+        return None;
+    }
+    let floor = |v: &[f32; LANES]| -> [u64; LANES] {
+        let mut out = [0u64; LANES];
+        for (o, &v) in out.iter_mut().zip(v) {
+            let t = v as i32;
+            *o = ((t - i32::from(t as f32 > v)) as u32 & 0x1f_ffff) as u64;
+        }
+        out
+    };
+    let (x, y, z) = (floor(&c[0]), floor(&c[1]), floor(&c[2]));
+    Some(std::array::from_fn(|k| (x[k] << 42) | (y[k] << 21) | z[k]))
+}
+
 /// SplitMix64's finaliser: spreads the cube keys evenly over the hash range.
 fn mix(mut z: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
@@ -59,16 +89,35 @@ fn kept(key: u64, level: u32) -> bool {
 impl SpacingProbe {
     /// Adds points; non-finite ones are skipped.
     pub fn add(&mut self, xyz: &[[f32; 3]]) {
-        for p in xyz {
-            if !p.iter().all(|c| c.is_finite()) {
-                continue;
-            }
-            let key = cube_key(p);
-            if kept(key, self.level) {
-                self.points.push((key, *p));
-                if self.points.len() > MAX_PROBE {
-                    self.thin();
+        let mut chunks = xyz.chunks_exact(LANES);
+        for chunk in chunks.by_ref() {
+            match lane_keys(chunk) {
+                Some(keys) => {
+                    for (&key, p) in keys.iter().zip(chunk) {
+                        self.offer(key, p);
+                    }
                 }
+                None => self.add_one_by_one(chunk),
+            }
+        }
+        self.add_one_by_one(chunks.remainder());
+    }
+
+    fn add_one_by_one(&mut self, xyz: &[[f32; 3]]) {
+        for p in xyz {
+            if p.iter().all(|c| c.is_finite()) {
+                self.offer(cube_key(p), p);
+            }
+        }
+    }
+
+    /// Keeps `p`, in the cube `key`, when the cube is kept.
+    #[inline]
+    fn offer(&mut self, key: u64, p: &[f32; 3]) {
+        if kept(key, self.level) {
+            self.points.push((key, *p));
+            if self.points.len() > MAX_PROBE {
+                self.thin();
             }
         }
     }
@@ -281,8 +330,21 @@ mod tests {
         ];
         xs.extend((-3000..3000).map(|k| k as f64 * 0.0137));
         xs.extend((-100..100).map(|k| k as f32 * 0.1).map(|v| v as f64));
-        for x in xs {
+        for &x in &xs {
             assert_eq!(floor_i64(x), x.floor() as i64, "{x}");
+        }
+        // The lanes give the same keys, and leave alone what they cannot take.
+        let vs: Vec<f32> = xs.iter().map(|&x| x as f32).collect();
+        for (k, w) in vs.windows(3).enumerate() {
+            let pts: Vec<[f32; 3]> = (0..LANES).map(|j| [w[0], w[1], w[2] + j as f32]).collect();
+            match lane_keys(&pts) {
+                Some(keys) => {
+                    for (key, p) in keys.iter().zip(&pts) {
+                        assert_eq!(*key, cube_key(p), "{k}: {p:?}");
+                    }
+                }
+                None => assert!(pts.iter().flatten().any(|v| !(v.abs() < 2e9)), "{k}"),
+            }
         }
     }
 
