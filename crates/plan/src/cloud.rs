@@ -101,16 +101,23 @@ impl PointCloud {
         }
     }
 
-    /// Axis-aligned bounds of the local coordinates, `None` when empty.
+    /// Axis-aligned bounds of the local coordinates, `None` when empty. Blocks of points
+    /// on every core, their bounds merged in order (non-finite values are passed over).
     pub fn local_bounds(&self) -> Option<([f32; 3], [f32; 3])> {
-        let first = *self.xyz.first()?;
-        Some(self.xyz.iter().fold((first, first), |(mut lo, mut hi), p| {
+        let widen = |(mut lo, mut hi): ([f32; 3], [f32; 3]), b: ([f32; 3], [f32; 3])| {
             for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
+                lo[k] = lo[k].min(b.0[k]);
+                hi[k] = hi[k].max(b.1[k]);
             }
             (lo, hi)
-        }))
+        };
+        self.xyz
+            .par_chunks(CHECK_BLOCK)
+            .map(|block| {
+                let first = (block[0], block[0]);
+                block.iter().fold(first, |b, p| widen(b, (*p, *p)))
+            })
+            .reduce_with(widen)
     }
 
     /// Checks the cross-field invariants readers must uphold.
@@ -161,7 +168,7 @@ impl PointCloud {
     }
 }
 
-/// Points per parallel block of [`PointCloud::check`].
+/// Points per parallel block of [`PointCloud::check`] and [`PointCloud::local_bounds`].
 const CHECK_BLOCK: usize = 1 << 16;
 
 /// Picks a local origin near `first`, rounded to whole kilometres so nearby clouds share it.
@@ -179,4 +186,36 @@ pub fn to_local(origin: [f64; 3], p: [f64; 3]) -> [f32; 3] {
         (p[1] - origin[1]) as f32,
         (p[2] - origin[2]) as f32,
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounds_in_blocks_are_the_bounds_in_one_pass() {
+        let n = 3 * CHECK_BLOCK + 17;
+        let mut xyz: Vec<[f32; 3]> = (0..n)
+            .map(|k| {
+                let v = (k as f32 * 0.618).sin();
+                [v * 40.0, (k % 977) as f32 * -0.01, v * v]
+            })
+            .collect();
+        xyz[5] = [f32::NAN, 1e6, f32::NAN];
+        xyz[2 * CHECK_BLOCK] = [-7e5, f32::INFINITY, -3.0];
+        let cloud = PointCloud {
+            xyz: xyz.clone(),
+            ..Default::default()
+        };
+        let first = xyz[0];
+        let serial = xyz.iter().fold((first, first), |(mut lo, mut hi), p| {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+            (lo, hi)
+        });
+        assert_eq!(cloud.local_bounds(), Some(serial));
+        assert_eq!(PointCloud::default().local_bounds(), None);
+    }
 }

@@ -14,7 +14,7 @@ use crate::plan::{FloorPlan, InputSummary, StoryPlan};
 use crate::progress::{Progress, Stage};
 use crate::rooms::{find_rooms, Scanner, StoryPoints};
 use crate::samples::{
-    check_params, sample_walls_in, SamplesError, SpacingProbe, StoryBounds, WallSamples,
+    check_params, sample_walls_in, Blocks, SamplesError, SpacingProbe, StoryBounds, WallSamples,
 };
 use crate::smoothing::{smooth_samples, SmoothingError};
 use crate::stories::{split_cloud_stories, StoriesError, Story};
@@ -231,6 +231,7 @@ pub fn plan(
     summary.viewpoints = estimate.report;
     summary.open_space = Some(&open_space);
     summary.scanners = scanners(seen_from);
+    summary.blocks = Some(&blocks);
     plan_stories(
         &summary,
         &stories,
@@ -254,6 +255,8 @@ pub(crate) struct CloudSummary<'a> {
     pub open_space: Option<&'a RefCell<Vec<OpenSpaceStory>>>,
     /// The static scanners' positions, for the rooms they stand in.
     pub scanners: Vec<Scanner>,
+    /// The height range of each block of the cloud's points, when measured.
+    pub blocks: Option<&'a Blocks>,
 }
 
 impl<'a> CloudSummary<'a> {
@@ -264,6 +267,7 @@ impl<'a> CloudSummary<'a> {
             viewpoints: ViewpointsReport::default(),
             open_space: None,
             scanners: scanners(&cloud.viewpoints),
+            blocks: None,
         }
     }
 }
@@ -489,6 +493,7 @@ fn plan_story(
     // A story whose rooms cannot be found keeps its plan, with a note.
     let points = StoryPoints {
         xyz: &input.cloud.xyz,
+        blocks: input.blocks,
     };
     match timings.time(Stage::Rooms, || {
         find_rooms(&plan, &points, &input.scanners, &params.rooms, grid)

@@ -369,6 +369,7 @@ pub(crate) fn lintels(
         ceiling,
     } = points.fold(
         stride,
+        low.0.min(z0)..=z1.max(low.1),
         empty,
         |mut seen, q| {
             let z = q[2] as f64;

@@ -25,12 +25,15 @@ pub(crate) mod windows;
 #[cfg(test)]
 mod tests;
 
+use std::ops::{Range, RangeInclusive};
+
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::geom::P2;
 use crate::params::{within, ParamRange};
 use crate::plan::{Spaces, StoryPlan};
+use crate::samples::Blocks;
 use crate::validity::Grid;
 
 /// Parameters of [`find_rooms`].
@@ -186,25 +189,53 @@ pub struct RoomsOutcome {
 pub struct StoryPoints<'a> {
     /// Local x, y, z of the points.
     pub xyz: &'a [[f32; 3]],
+    /// The height range of each block of `xyz`, when known: a pass then skips the blocks
+    /// outside the heights it reads, which are most of a multi-story cloud.
+    pub blocks: Option<&'a Blocks>,
 }
 
+/// Indices a share of a pass covers, at least (fewer shares, fewer `empty()` to merge).
+const SHARE: usize = 1 << 18;
+
 impl StoryPoints<'_> {
-    /// Every `stride`-th point, on all cores: each share is added into its own `empty()`,
-    /// and the shares merged. The result must not depend on how the points were shared out.
+    /// Every `stride`-th point (by index in `xyz`) with a height in `z`, and maybe others, on
+    /// all cores: each share is added into its own `empty()`, and the shares merged. The
+    /// result must not depend on how the points were shared out.
     pub(crate) fn fold<T: Send>(
         &self,
         stride: usize,
+        z: RangeInclusive<f64>,
         empty: impl Fn() -> T + Sync + Send,
         add: impl Fn(T, &[f32; 3]) -> T + Sync + Send,
         merge: impl Fn(T, T) -> T + Sync + Send,
     ) -> T {
-        self.xyz
-            .par_iter()
-            .step_by(stride)
-            .with_min_len(1 << 16)
-            .fold(&empty, add)
+        let n = self.xyz.len();
+        let spans = match self.blocks {
+            Some(b) => b.spans_within(z),
+            None => std::iter::once(0..n).collect(),
+        };
+        shares(&spans, stride, n)
+            .into_par_iter()
+            .fold(&empty, |acc, r| {
+                r.step_by(stride).fold(acc, |acc, k| add(acc, &self.xyz[k]))
+            })
             .reduce(&empty, merge)
     }
+}
+
+/// `spans` (in order) cut into shares of at most [`SHARE`] strides, each starting on a multiple
+/// of `stride` and ending by `n`: their `step_by(stride)` visit the multiples of `stride` in
+/// `spans`, the points a stride over the whole cloud visits there.
+fn shares(spans: &[Range<usize>], stride: usize, n: usize) -> Vec<Range<usize>> {
+    spans
+        .iter()
+        .flat_map(|r| {
+            let (start, end) = (r.start.div_ceil(stride) * stride, r.end.min(n));
+            (start..end)
+                .step_by(SHARE * stride)
+                .map(move |s| s..(s + SHARE * stride).min(end))
+        })
+        .collect()
 }
 
 /// Divides `story`'s free floor into rooms, finds its doors, openings and windows, and pairs

@@ -43,7 +43,10 @@ fn story(
 fn run(plan: &StoryPlan, points: &[[f32; 3]], scanners: &[Scanner]) -> RoomsOutcome {
     let out = find_rooms(
         plan,
-        &StoryPoints { xyz: points },
+        &StoryPoints {
+            xyz: points,
+            blocks: None,
+        },
         scanners,
         &RoomsParams::default(),
         &Grid::local(),
@@ -517,11 +520,88 @@ fn nothing_in_nothing_out() {
     let plan = StoryPlan::default();
     let out = find_rooms(
         &plan,
-        &StoryPoints { xyz: &[] },
+        &StoryPoints {
+            xyz: &[],
+            blocks: None,
+        },
         &[],
         &RoomsParams::default(),
         &Grid::local(),
     )
     .unwrap();
     assert!(out.spaces.rooms.is_empty());
+}
+
+#[test]
+fn shares_visit_the_stride_over_the_whole_cloud() {
+    let n = 10 * SHARE + 7;
+    let spans = [
+        3..SHARE + 5,
+        2 * SHARE + 1..2 * SHARE + 2,
+        4 * SHARE..n + 100,
+    ];
+    for stride in [1, 2, 3, 4, 7] {
+        let got: Vec<usize> = shares(&spans, stride, n)
+            .into_iter()
+            .flat_map(|r| r.step_by(stride))
+            .collect();
+        let want: Vec<usize> = (0..n)
+            .step_by(stride)
+            .filter(|k| spans.iter().any(|r| r.contains(k)))
+            .collect();
+        assert_eq!(got, want, "stride {stride}");
+    }
+}
+
+#[test]
+fn blocks_of_other_heights_are_skipped_with_the_same_rooms() {
+    // Two rooms joined by a door with a lintel, and a window in the south wall.
+    let (plan, mut points) = story(
+        &[Rect::new(0.0, 0.0, 4.0, 4.0), Rect::new(4.1, 0.0, 8.0, 4.0)],
+        &[Rect::new(4.0, 1.5, 4.1, 2.4)],
+        &[],
+        true,
+    );
+    for i in 0..400 {
+        for k in 0..130 {
+            let (x, z) = (i as f64 * 0.02 + 0.01, k as f64 * 0.02 + 0.01);
+            if !((1.5..3.0).contains(&x) && (0.9..2.1).contains(&z)) {
+                points.push([x as f32, 0.0, z as f32]);
+            }
+        }
+    }
+    // Whole blocks of the story above between blocks of this story's points.
+    let block = crate::samples::Blocks::SIZE;
+    let above: Vec<[f32; 3]> = points.iter().map(|p| [p[0], p[1], p[2] + 5.0]).collect();
+    let mut cloud = Vec::new();
+    for (k, p) in points.iter().enumerate() {
+        cloud.push(*p);
+        if k % 7_000 == 0 {
+            cloud.extend(above.iter().cycle().take(2 * block));
+        }
+    }
+    let stories = [
+        crate::stories::Story::flat(0, 0.0, 2.6, -1.0, 3.0),
+        crate::stories::Story::flat(1, 5.0, 7.6, 3.0, 9.0),
+    ];
+    let (_, blocks) = crate::samples::StoryBounds::measure_all(&cloud, &stories);
+    assert!(blocks.spans(&stories[0]).len() > 1);
+    let find = |blocks| {
+        find_rooms(
+            &plan,
+            &StoryPoints {
+                xyz: &cloud,
+                blocks,
+            },
+            &[],
+            &RoomsParams::default(),
+            &Grid::local(),
+        )
+        .expect("rooms")
+    };
+    let whole = find(None);
+    assert_eq!(whole.spaces.rooms.len(), 2, "{:?}", whole.spaces);
+    assert_eq!(whole.spaces.windows.len(), 1, "{:?}", whole.spaces);
+    assert!(whole.spaces.doors.iter().any(|d| d.kind == DoorKind::Door));
+    assert_eq!(find(Some(&blocks)), whole);
 }

@@ -48,8 +48,11 @@ pub(crate) fn find(
     // A very dense cloud is read in a stride: 10 cm bins stay well filled. Both cores count a
     // share each, summed after.
     let stride = (points.xyz.len() / 4_000_000).max(1);
+    // With a margin: `z` is a difference, rounded.
+    let heights = story.floor_z - 0.1..=story.ceiling_z + 0.1;
     let grids = points.fold(
         stride,
+        heights,
         empty,
         |mut grids, q| {
             let z = q[2] as f64 - story.floor_z;
@@ -266,8 +269,15 @@ fn refine(windows: &mut [Piece], story: &StoryPlan, points: &StoryPoints<'_>, st
     let index = BoxIndex::new(&boxes);
     // The nearest point to each edge: the same whichever core found it.
     const PICK: [fn(f64, f64) -> f64; 4] = [f64::max, f64::min, f64::max, f64::min];
+    // Every height read below, with a margin: `z` is a difference, rounded.
+    let edges_z = || windows.iter().flat_map(|w| [w.sill, w.head]);
+    let low = edges_z().fold(f64::INFINITY, f64::min);
+    let high = edges_z().fold(f64::NEG_INFINITY, f64::max);
+    let heights =
+        story.floor_z + low - HEIGHT_REACH - 0.1..=story.floor_z + high + HEIGHT_REACH + 0.1;
     let edges: Vec<[Option<f64>; 4]> = points.fold(
         stride,
+        heights,
         empty,
         |mut edges, q| {
             let z = q[2] as f64 - story.floor_z;

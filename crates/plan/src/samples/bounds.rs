@@ -3,7 +3,7 @@
 //! ([`GridFrame`]), rectangles of its cells ([`CellRange`]), and the height range of each block
 //! of points ([`Blocks`]) that lets a story's passes skip the others' points.
 
-use std::ops::Range;
+use std::ops::{Range, RangeInclusive};
 
 use rayon::prelude::*;
 
@@ -259,10 +259,21 @@ impl Blocks {
 
     /// The index ranges of the points that may belong to `story`, in order.
     pub fn spans(&self, story: &Story) -> Vec<Range<usize>> {
+        self.ranges(|lo, hi| !(hi < story.z_min || lo >= story.z_max))
+    }
+
+    /// The index ranges of the points that may have a height in `z` (closed), in order. The
+    /// last range may reach past the last point.
+    pub fn spans_within(&self, z: RangeInclusive<f64>) -> Vec<Range<usize>> {
+        self.ranges(|lo, hi| !(hi < *z.start() || lo > *z.end()))
+    }
+
+    /// The blocks whose height range `keep` accepts, consecutive ones joined.
+    fn ranges(&self, keep: impl Fn(f64, f64) -> bool) -> Vec<Range<usize>> {
         let mut out: Vec<Range<usize>> = Vec::new();
         for (b, &(lo, hi)) in self.z.iter().enumerate() {
             let (lo, hi) = (lo as f64, hi as f64);
-            if hi < story.z_min || lo >= story.z_max || lo.is_nan() {
+            if lo.is_nan() || !keep(lo, hi) {
                 continue;
             }
             let r = b * Self::SIZE..(b + 1) * Self::SIZE;

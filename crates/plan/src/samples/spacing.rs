@@ -32,8 +32,47 @@ pub struct SpacingProbe {
 
 /// A cube's key: its coordinates, 21 bits each (wrapping far outside ±1000 km).
 fn cube_key(p: &[f32; 3]) -> u64 {
-    let c = |v: f32| ((v as f64 / CUBE).floor() as i64 as u64) & 0x1f_ffff;
+    let c = |v: f32| (floor_i64(v as f64 / CUBE) as u64) & 0x1f_ffff;
     (c(p[0]) << 42) | (c(p[1]) << 21) | c(p[2])
+}
+
+/// `x.floor() as i64`, without the libm call the baseline x86-64 target makes for `floor`
+/// (three per point here): the truncation, one less when it rounded up.
+#[inline]
+fn floor_i64(x: f64) -> i64 {
+    let t = x as i64;
+    // Past the ends of i64 the cast saturates, as `floor() as i64` does.
+    t.saturating_sub(i64::from(t as f64 > x))
+}
+
+/// Points whose cube keys are found together, a coordinate at a time in 32-bit lanes.
+const LANES: usize = 8;
+
+/// [`cube_key`] of each of `LANES` points, when every coordinate is within ±2e9 m (so finite,
+/// and its floor fits an `i32`); `None` otherwise. Each coordinate's floor is its truncation,
+/// one less when that rounded up; both are exact in `f32` (a value from 2^24 on is whole).
+fn lane_keys(pts: &[[f32; 3]]) -> Option<[u64; LANES]> {
+    let mut c = [[0f32; LANES]; 3];
+    let mut small = true;
+    for (k, p) in pts.iter().enumerate() {
+        for a in 0..3 {
+            c[a][k] = p[a];
+            small &= p[a].abs() < 2e9;
+        }
+    }
+    if !small {
+        return None;
+    }
+    let floor = |v: &[f32; LANES]| -> [u64; LANES] {
+        let mut out = [0u64; LANES];
+        for (o, &v) in out.iter_mut().zip(v) {
+            let t = v as i32;
+            *o = ((t - i32::from(t as f32 > v)) as u32 & 0x1f_ffff) as u64;
+        }
+        out
+    };
+    let (x, y, z) = (floor(&c[0]), floor(&c[1]), floor(&c[2]));
+    Some(std::array::from_fn(|k| (x[k] << 42) | (y[k] << 21) | z[k]))
 }
 
 /// SplitMix64's finaliser: spreads the cube keys evenly over the hash range.
@@ -50,16 +89,35 @@ fn kept(key: u64, level: u32) -> bool {
 impl SpacingProbe {
     /// Adds points; non-finite ones are skipped.
     pub fn add(&mut self, xyz: &[[f32; 3]]) {
-        for p in xyz {
-            if !p.iter().all(|c| c.is_finite()) {
-                continue;
-            }
-            let key = cube_key(p);
-            if kept(key, self.level) {
-                self.points.push((key, *p));
-                if self.points.len() > MAX_PROBE {
-                    self.thin();
+        let mut chunks = xyz.chunks_exact(LANES);
+        for chunk in chunks.by_ref() {
+            match lane_keys(chunk) {
+                Some(keys) => {
+                    for (&key, p) in keys.iter().zip(chunk) {
+                        self.offer(key, p);
+                    }
                 }
+                None => self.add_one_by_one(chunk),
+            }
+        }
+        self.add_one_by_one(chunks.remainder());
+    }
+
+    fn add_one_by_one(&mut self, xyz: &[[f32; 3]]) {
+        for p in xyz {
+            if p.iter().all(|c| c.is_finite()) {
+                self.offer(cube_key(p), p);
+            }
+        }
+    }
+
+    /// Keeps `p`, in the cube `key`, when the cube is kept.
+    #[inline]
+    fn offer(&mut self, key: u64, p: &[f32; 3]) {
+        if kept(key, self.level) {
+            self.points.push((key, *p));
+            if self.points.len() > MAX_PROBE {
+                self.thin();
             }
         }
     }
@@ -85,11 +143,11 @@ impl SpacingProbe {
         }
     }
 
-    /// The probe of a whole cloud, in parallel.
+    /// The probe of a whole cloud, in parallel. Each thread keeps one probe across its
+    /// chunks: once its share is thinned, most points are dropped on their hash alone.
     pub fn of(xyz: &[[f32; 3]]) -> SpacingProbe {
         xyz.par_chunks(1 << 16)
-            .map(|chunk| {
-                let mut p = SpacingProbe::default();
+            .fold(SpacingProbe::default, |mut p, chunk| {
                 p.add(chunk);
                 p
             })
@@ -247,6 +305,50 @@ mod tests {
         assert_eq!(parts.level, whole.level);
         assert_eq!(parts.spacing(), whole.spacing());
         assert!((whole.spacing().unwrap() - 0.01).abs() < 1e-4);
+    }
+
+    #[test]
+    fn the_floor_is_the_libm_floor() {
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            -1.5,
+            2.0f64.powi(52) + 0.5,
+            -(2.0f64.powi(53)) - 2.0,
+            9.3e18,
+            -9.3e18,
+            -(2.0f64.powi(63)),
+            f32::MAX as f64,
+            f32::MIN as f64,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        xs.extend((-3000..3000).map(|k| k as f64 * 0.0137));
+        xs.extend((-100..100).map(|k| k as f32 * 0.1).map(|v| v as f64));
+        for &x in &xs {
+            assert_eq!(floor_i64(x), x.floor() as i64, "{x}");
+        }
+        // The lanes give the same keys, and leave alone what they cannot take.
+        let vs: Vec<f32> = xs.iter().map(|&x| x as f32).collect();
+        for (k, w) in vs.windows(3).enumerate() {
+            let pts: Vec<[f32; 3]> = (0..LANES).map(|j| [w[0], w[1], w[2] + j as f32]).collect();
+            match lane_keys(&pts) {
+                Some(keys) => {
+                    for (key, p) in keys.iter().zip(&pts) {
+                        assert_eq!(*key, cube_key(p), "{k}: {p:?}");
+                    }
+                }
+                None => assert!(
+                    pts.iter().flatten().any(|v| v.is_nan() || v.abs() >= 2e9),
+                    "{k}"
+                ),
+            }
+        }
     }
 
     #[test]
