@@ -169,9 +169,12 @@ fn main() {
     let (params, _) = params.derive(SpacingProbe::of(&cloud.xyz).spacing());
     // Scanners the cloud does not give are estimated as the plan does: from scan ids or times,
     // else pseudo-viewpoints in the open space the samples enclose.
+    // (An estimated mobile path is set aside for pseudo-viewpoints, as the plan does.)
     let estimated = asbuilt_plan::viewpoints::estimate(&cloud, &params.viewpoints).viewpoints;
-    if let Some(v) = &estimated {
-        cloud.viewpoints = v.clone();
+    match &estimated {
+        Some(Viewpoints::Trajectory(_)) if params.viewpoints.open_space => {}
+        Some(v) => cloud.viewpoints = v.clone(),
+        None => {}
     }
     let mut samples = sample_walls(&cloud, story, &params.samples, &Cancel::never()).unwrap();
     if matches!(cloud.viewpoints, Viewpoints::None) && params.viewpoints.open_space {

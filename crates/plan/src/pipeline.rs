@@ -184,8 +184,18 @@ pub fn plan(
     let estimate = viewpoints::estimate(cloud, &params.viewpoints);
     timings.add(VIEWPOINTS, clock.elapsed().as_secs_f64() * 1e3);
     cancel.check()?;
-    // Estimated viewpoints are used exactly as given ones.
-    let seen_from = estimate.viewpoints.as_ref().unwrap_or(&cloud.viewpoints);
+    // Estimated viewpoints are used exactly as given ones, except an estimated mobile path:
+    // it is reported, but the labeling takes its lines of sight from pseudo-viewpoints in open
+    // space. Between located windows the path is a guess, and where the walker turned unseen
+    // (into a room and out) its lines of sight cut walls; on the simulated mobile scans the
+    // pseudo-viewpoints planned as well or better (sparse office 0.9794 against 0.9730).
+    let path_set_aside = params.viewpoints.open_space
+        && matches!(estimate.viewpoints, Some(Viewpoints::Trajectory(_)));
+    let seen_from = match &estimate.viewpoints {
+        _ if path_set_aside => &Viewpoints::None,
+        Some(v) => v,
+        None => &cloud.viewpoints,
+    };
     // Splitting the stories and measuring their bounds are a few linear passes over the
     // points: checked between them, not inside.
     let stories = timings.time(Stage::Stories, || {
@@ -380,7 +390,9 @@ pub(crate) fn plan_stories(
             .open_space
             .iter()
             .any(|s| !s.viewpoints.is_empty());
-        if any && viewpoints.source == ViewpointSource::None {
+        // Places are only made where no viewpoint was given or estimated, or an estimated
+        // path was set aside for them.
+        if any {
             viewpoints.source = ViewpointSource::OpenSpace;
         }
     }

@@ -14,6 +14,7 @@ use asbuilt_plan::evaluate::{evaluate, EvaluateParams, Evaluation};
 use asbuilt_plan::io::{ply, poses, read_cloud};
 use asbuilt_plan::progress::NoProgress;
 use asbuilt_plan::simulate::{simulate, BuildingKind, Keep, ScanOptions, Simulation};
+use asbuilt_plan::viewpoints::ViewpointSource;
 use asbuilt_plan::{FloorPlan, Params};
 
 fn scan(kind: BuildingKind, options: ScanOptions) -> Simulation {
@@ -317,18 +318,26 @@ fn sparse_mobile_scan_of_the_office() {
     assert!(e.max_boundary_p95() <= 0.08, "p95\n{s}");
     let problems = asbuilt_plan::validity::plan_problems(&plan);
     assert!(problems.is_empty(), "{problems:?}");
-    // Without the trajectory, its path estimated from the times: 0.9730 with the corridors'
-    // corners put back into the path (0.9615 while the path cut them through the core's
-    // shafts; 0.9504 while a scanner was assumed across the path's gaps and beyond its ends).
-    // Issue 15 asks for 0.973, and within 0.01 of the plan with the trajectory (0.9830).
+    // Without the trajectory: 0.9794 from pseudo-viewpoints in open space. Lines of sight from
+    // the path estimated from the times gave 0.9730 with the corridors' corners put back into
+    // it, 0.9615 while it cut them through the core's shafts, and 0.9504 while a scanner was
+    // assumed across its gaps and beyond its ends. Issue 15 asks for 0.97, and within 0.01 of
+    // the plan with the trajectory (0.9830).
     let mut cloud = sim.cloud.clone();
     cloud.viewpoints = Viewpoints::None;
     let (plan, without) = plan_and_score(&cloud, &sim, &Params::default());
     let s = without.summary();
+    // The path is estimated and reported; the plan rests on pseudo-viewpoints.
+    let v = &plan.input.viewpoints;
+    assert_eq!(v.source, ViewpointSource::OpenSpace);
+    assert!(v
+        .path
+        .as_ref()
+        .is_some_and(|p| p.estimated && p.located > 0));
     assert!(without.all_watertight(), "every story found\n{s}");
     assert!(without.min_iou() >= 0.97, "IoU without trajectory\n{s}");
     assert!(
-        e.min_iou() - without.min_iou() <= 0.012,
+        e.min_iou() - without.min_iou() <= 0.01,
         "IoU with {} and without trajectory\n{s}",
         e.min_iou()
     );

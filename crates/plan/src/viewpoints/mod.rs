@@ -6,12 +6,13 @@
 //! - Static scans with scan ids but no poses: each scan's blind cone under the tripod gives
 //!   its scanner position (`cone`).
 //! - A mobile scan with times but no trajectory: the same cone, fitted to the points of short
-//!   time windows, gives the path (`path`).
+//!   time windows, gives the path (`path`). It is reported, but the plan rests on open space
+//!   (below): lines of sight from a path guessed between located windows cut walls.
 //! - Plain x, y, z: `open_space` places pseudo-viewpoints in the open space each story's wall
 //!   samples enclose, after sampling, where floor or ceiling points were scanned.
 //!
-//! Estimated viewpoints are used exactly as given ones; [`ViewpointsReport`] says which are
-//! which, with a residual per scan.
+//! Estimated static positions are used exactly as given ones; [`ViewpointsReport`] says which
+//! are which, with a residual per scan.
 
 pub(crate) mod cone;
 pub(crate) mod open_space;
@@ -36,7 +37,9 @@ pub struct ViewpointsParams {
     /// Points per time window of a mobile scan (of the evenly thinned cloud).
     pub window_points: usize,
     /// Plain x, y, z (no poses, scan ids or times): place pseudo-viewpoints in the open space
-    /// the wall samples enclose (`open_space`). `false` plans such clouds on geometry alone.
+    /// the wall samples enclose (`open_space`), and a mobile scan without its trajectory too
+    /// (its estimated path is only reported). `false` plans plain clouds on geometry alone and
+    /// mobile ones from the estimated path.
     pub open_space: bool,
     /// Pseudo-viewpoints stand at least this far from every wall sample, metres.
     pub open_space_clearance: f64,
@@ -532,9 +535,15 @@ pub fn describe(report: &ViewpointsReport) -> Vec<String> {
         }
         ViewpointSource::OpenSpace => {
             let placed: usize = report.open_space.iter().map(|s| s.viewpoints.len()).sum();
-            let given = match report.scans.len() {
-                0 => "no scanner poses, scan ids or times were given".to_string(),
-                n => format!(
+            let given = match (&report.path, report.scans.len()) {
+                (Some(p), _) if p.estimated => format!(
+                    "no trajectory was given: the mobile scanner's path was estimated from the points' times ({} of {} time windows located, {:.1} m long) and is reported but not used, since lines of sight from it cut walls where the scanner turned unseen; instead",
+                    p.located,
+                    p.windows,
+                    p.length.unwrap_or(0.0)
+                ),
+                (_, 0) => "no scanner poses, scan ids or times were given".to_string(),
+                (_, n) => format!(
                     "no scanner pose was given and none of the {n} scans could be located from the blind spot under the scanner"
                 ),
             };
@@ -570,6 +579,38 @@ pub(crate) fn trajectory(points: &[(f64, [f64; 3])]) -> Vec<TrajectorySample> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_estimated_path_set_aside_for_open_space_is_said_so() {
+        let report = ViewpointsReport {
+            source: ViewpointSource::OpenSpace,
+            path: Some(PathReport {
+                estimated: true,
+                samples: 10,
+                windows: 12,
+                located: 10,
+                residual: Some(0.01),
+                length: Some(42.0),
+                positions: Vec::new(),
+            }),
+            open_space: vec![OpenSpaceStory {
+                level: 0,
+                viewpoints: vec![[1.0, 1.0], [4.0, 1.0]],
+                samples_seen: 5,
+                samples: 5,
+            }],
+            rests_on: Some(0.9),
+            ..Default::default()
+        };
+        let notes = describe(&report).join("\n");
+        assert!(
+            notes.contains("estimated from the points' times (10 of 12"),
+            "{notes}"
+        );
+        assert!(notes.contains("reported but not used"), "{notes}");
+        assert!(notes.contains("2 pseudo-viewpoints were placed"), "{notes}");
+        assert!(!notes.contains("used as the trajectory"), "{notes}");
+    }
 
     #[test]
     fn thinning_keeps_an_even_subsample() {
