@@ -1,5 +1,7 @@
 //! Hard constraints (§3.3): box-corner triangles outside; triangles crossed by enough lines of
 //! sight, containing a scanner pose, or crossed by the mobile path inside. Outside wins on conflict.
+//! Triangles holding a point known to be inside a wall (see `backs`) are outside unless evidence
+//! puts them inside.
 
 use rayon::prelude::*;
 
@@ -21,6 +23,8 @@ pub(crate) struct Constraints {
     pub inside_path: usize,
     /// Triangles that evidence put inside but that touch a box corner (kept outside).
     pub conflicts: usize,
+    /// Triangles forced outside as solid wall behind a face (no inside evidence there).
+    pub solid: usize,
     /// Lines of sight walked.
     pub rays: usize,
     /// Lines of sight not walked: viewpoint outside the triangulation or a degenerate start.
@@ -32,10 +36,12 @@ pub(crate) struct Constraints {
 /// Computes the hard constraints for `mesh` from the samples' viewpoints and path.
 /// `min_rays` lines of sight force a triangle inside; each line of sight is the central
 /// `ray_fraction` of its viewpoint→sample segment, extended back to the viewpoint when
-/// `rays_from_scanner` is set. Stops with `Cancelled` once `cancel` says so.
+/// `rays_from_scanner` is set. Triangles holding a point of `solid` are forced outside when
+/// nothing forced them inside. Stops with `Cancelled` once `cancel` says so.
 pub(crate) fn hard_constraints(
     mesh: &Mesh,
     samples: &WallSamples,
+    solid: &[P2],
     params: &LabelingParams,
     cancel: &Cancel,
 ) -> Result<Constraints, Cancelled> {
@@ -148,6 +154,14 @@ pub(crate) fn hard_constraints(
         }
     }
 
+    let mut walled = vec![false; nt];
+    let mut hint = 0u32;
+    for &p in solid {
+        if let Some(t) = finite(p).then(|| locate(mesh, p, hint)).flatten() {
+            walled[t as usize] = true;
+            hint = t;
+        }
+    }
     for (t, &evidence) in inside.iter().enumerate() {
         if mesh.touches_corner(t) {
             c.forced[t] = Some(false);
@@ -157,6 +171,9 @@ pub(crate) fn hard_constraints(
             }
         } else if evidence {
             c.forced[t] = Some(true);
+        } else if walled[t] {
+            c.forced[t] = Some(false);
+            c.solid += 1;
         }
     }
     Ok(c)
@@ -202,7 +219,14 @@ mod tests {
         let ws = room(vec![[2.0, 2.1], [1.1, 1.3]]);
         let pts: Vec<P2> = ws.samples.iter().map(|s| s.pos).collect();
         let mesh = Mesh::build(&pts, &[]).unwrap();
-        let c = hard_constraints(&mesh, &ws, &LabelingParams::default(), &Cancel::never()).unwrap();
+        let c = hard_constraints(
+            &mesh,
+            &ws,
+            &[],
+            &LabelingParams::default(),
+            &Cancel::never(),
+        )
+        .unwrap();
         assert_eq!(c.rays, 2 * ws.samples.len());
         assert_eq!(c.rays_skipped, 0);
         assert_eq!(c.inside_poses, 2);
@@ -231,7 +255,14 @@ mod tests {
         ws.path = vec![[0.5, 0.5], [3.5, 3.5], [7.0, 3.5]];
         let pts: Vec<P2> = ws.samples.iter().map(|s| s.pos).collect();
         let mesh = Mesh::build(&pts, &[]).unwrap();
-        let c = hard_constraints(&mesh, &ws, &LabelingParams::default(), &Cancel::never()).unwrap();
+        let c = hard_constraints(
+            &mesh,
+            &ws,
+            &[],
+            &LabelingParams::default(),
+            &Cancel::never(),
+        )
+        .unwrap();
         assert!(c.inside_path > 0);
         assert!(
             c.conflicts > 0,
@@ -254,7 +285,14 @@ mod tests {
         ];
         let pts: Vec<P2> = ws.samples.iter().map(|s| s.pos).collect();
         let mesh = Mesh::build(&pts, &[]).unwrap();
-        let c = hard_constraints(&mesh, &ws, &LabelingParams::default(), &Cancel::never()).unwrap();
+        let c = hard_constraints(
+            &mesh,
+            &ws,
+            &[],
+            &LabelingParams::default(),
+            &Cancel::never(),
+        )
+        .unwrap();
         assert!(c.inside_path > 0);
         let t = locate(&mesh, [2.0, 2.0], 0).unwrap();
         assert_eq!(

@@ -101,7 +101,7 @@ pub(crate) fn fill(mesh: &Mesh) -> (Vec<P2>, Vec<P2>) {
 
 /// The median over sample vertices of their shortest edge to another sample: the spacing of
 /// the rows. `None` without edges.
-fn spacing(mesh: &Mesh) -> Option<f64> {
+pub(super) fn spacing(mesh: &Mesh) -> Option<f64> {
     let ns = mesh.n_samples;
     let mut shortest = vec![f64::INFINITY; ns];
     for tri in &mesh.triangles {

@@ -3,12 +3,14 @@
 //!
 //! - `mesh`: spade Delaunay of the samples plus four box corners.
 //! - `gaps`: vertices filled into short holes of straight rows of samples (beyond the paper).
+//! - `backs`: vertices behind faces whose wall shows no other face (beyond the paper).
 //! - `weights`: poles and the signed edge weights (eq. (1) for adjacent poles).
 //! - `walk`: exact straight-line walks (point location, lines of sight, the mobile path).
 //! - `constraints`: forced inside/outside triangles.
 //! - `spectral`: the constrained pencil, its smallest eigenvector (dense, or shift-invert
 //!   Lanczos on one sparse Cholesky factor) and the harmonic solution from the same factor.
 
+mod backs;
 mod constraints;
 mod gaps;
 pub(crate) mod mesh;
@@ -43,6 +45,10 @@ pub struct LabelingParams {
     /// a fixed margin of a few cells still keeps rays clear of the wall they end on.
     /// `None` is the paper's central fraction. Range 0..=10.
     pub ray_end_margin: Option<f64>,
+    /// Beyond the paper: behind each face whose wall shows no other face, a vertex one typical
+    /// wall thickness back (see `backs`), so a room that saw the wall poorly cannot be joined
+    /// through it to the room that saw it well.
+    pub wall_backs: bool,
     /// Use only pole pairs that share an edge as negative edges (reading (b) of the design note).
     pub adjacent_poles_only: bool,
     /// Node count below which the eigenproblem is solved densely (design note §3 suggests ~3000).
@@ -83,6 +89,7 @@ impl Default for LabelingParams {
             ray_fraction: 0.5,
             rays_from_scanner: true,
             ray_end_margin: Some(0.15),
+            wall_backs: true,
             adjacent_poles_only: false,
             dense_below: 200,
             max_disagreement: 0.02,
@@ -151,6 +158,8 @@ pub struct LabelingReport {
     pub samples: usize,
     /// Vertices filled into short holes of straight rows of samples (see `gaps`).
     pub filled: usize,
+    /// Vertices placed behind faces whose wall shows no other face (see `backs`).
+    pub backed: usize,
     /// Positive (same-side) edges.
     pub positive_edges: usize,
     /// Negative edges between poles sharing an edge (eq. (1)).
@@ -253,10 +262,34 @@ pub fn label_with_report(
     }
     timings.mesh_ms = lap();
     cancel.check()?;
-    let graph = weights::build_graph(&mesh, params.adjacent_poles_only);
+    let mut graph = weights::build_graph(&mesh, params.adjacent_poles_only);
     timings.graph_ms = lap();
     cancel.check()?;
-    let cons = constraints::hard_constraints(&mesh, samples, params, cancel)?;
+    let mut cons = constraints::hard_constraints(&mesh, samples, &[], params, cancel)?;
+    // Walls carved by lines of sight from a room that saw them poorly get their backs, and the
+    // constraints are found again on the mesh that holds them.
+    let spacing = gaps::spacing(&mesh).filter(|_| params.wall_backs);
+    let backs = spacing.map_or_else(Vec::new, |h| backs::place(&samples.samples, h));
+    let mut hint = 0u32;
+    let carved = backs::select(&backs, spacing.unwrap_or(0.0), |b| {
+        b.probes[1..2]
+            .iter()
+            .any(|&p| match walk::locate(&mesh, p, hint) {
+                Some(t) => {
+                    hint = t;
+                    cons.forced[t as usize] == Some(true)
+                }
+                None => false,
+            })
+    });
+    let backed = carved.points.len();
+    if backed > 0 {
+        points.extend(&carved.points);
+        normals.extend(&carved.normals);
+        mesh = Mesh::build(&points, &normals)?;
+        graph = weights::build_graph(&mesh, params.adjacent_poles_only);
+        cons = constraints::hard_constraints(&mesh, samples, &carved.solid, params, cancel)?;
+    }
     timings.constraints_ms = lap();
     let nt = mesh.triangles.len();
     let reduced = spectral::Reduced::new(nt, &graph.edges, &cons.forced);
@@ -272,6 +305,7 @@ pub fn label_with_report(
         triangles: nt,
         samples: mesh.n_samples,
         filled,
+        backed,
         positive_edges: graph.edges.iter().filter(|e| e.2 > 0.0).count(),
         negative_adjacent: graph.negative_adjacent,
         negative_apart: graph.negative_apart,
