@@ -35,6 +35,10 @@ const OPPOSITE_COS: f64 = 0.866;
 /// along its normal.
 const ACROSS: f64 = 1.5;
 
+/// A line of sight passing within this many spacings of the place halfway behind a face shows
+/// the place open: the face is clutter standing in a room, not a wall.
+pub(crate) const SEEN_WITHIN: f64 = 1.0;
+
 /// No vertex is added within this many spacings of a sample: the place is vertexed already.
 const CLEAR: f64 = 0.75;
 

@@ -31,17 +31,28 @@ pub(crate) struct Constraints {
     pub rays_skipped: usize,
     /// Viewpoints outside the triangulation.
     pub poses_outside: usize,
+    /// Per probe: a walked line of sight passed within its radius (the place is open).
+    pub probes_seen: Vec<bool>,
+}
+
+/// Points to test for lines of sight passing near them, each with its radius.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Probes<'a> {
+    pub points: &'a [P2],
+    pub radius: f64,
 }
 
 /// Computes the hard constraints for `mesh` from the samples' viewpoints and path.
 /// `min_rays` lines of sight force a triangle inside; each line of sight is the central
 /// `ray_fraction` of its viewpoint→sample segment, extended back to the viewpoint when
 /// `rays_from_scanner` is set. Triangles holding a point of `solid` are forced outside when
-/// nothing forced them inside. Stops with `Cancelled` once `cancel` says so.
+/// nothing forced them inside. Each of `probes` is reported seen when a walked line of sight
+/// passes within its radius. Stops with `Cancelled` once `cancel` says so.
 pub(crate) fn hard_constraints(
     mesh: &Mesh,
     samples: &WallSamples,
     solid: &[P2],
+    probes: Probes<'_>,
     params: &LabelingParams,
     cancel: &Cancel,
 ) -> Result<Constraints, Cancelled> {
@@ -103,16 +114,18 @@ pub(crate) fn hard_constraints(
     let f = params.ray_fraction.clamp(0.0, 1.0);
     let (lo, hi) = ((1.0 - f) / 2.0, (1.0 + f) / 2.0);
     let lo = if params.rays_from_scanner { 0.0 } else { lo };
-    let (counts, walked, skipped) = samples
+    let in_triangle = probes_by_triangle(mesh, probes.points);
+    let np = probes.points.len();
+    let (counts, seen, walked, skipped) = samples
         .samples
         .par_iter()
         .with_min_len(256)
         .fold(
-            || (vec![0u32; nt], 0usize, 0usize),
-            |(mut counts, mut walked, mut skipped), s| {
+            || (vec![0u32; nt], vec![false; np], 0usize, 0usize),
+            |(mut counts, mut seen, mut walked, mut skipped), s| {
                 // A sample's rays may each cross the whole mesh: check once per sample.
                 if cancel.is_stopped() {
-                    return (counts, walked, skipped);
+                    return (counts, seen, walked, skipped);
                 }
                 for &v in &s.seen_from {
                     let (Some(&a), Some(Some(start))) =
@@ -125,9 +138,23 @@ pub(crate) fn hard_constraints(
                         Some(m) => hi.max(1.0 - m / geom::dist(a, s.pos).max(1e-9)),
                         None => hi,
                     };
+                    let d = geom::sub(s.pos, a);
+                    let (from, to) = (
+                        geom::add(a, geom::scale(d, lo)),
+                        geom::add(a, geom::scale(d, hi)),
+                    );
                     if !finite(s.pos)
                         || !segment_triangles(mesh, *start, a, s.pos, lo, hi, |t| {
-                            counts[t as usize] += 1
+                            counts[t as usize] += 1;
+                            for &k in in_triangle.of(t) {
+                                let k = k as usize;
+                                if !seen[k]
+                                    && geom::point_segment_distance(probes.points[k], from, to)
+                                        < probes.radius
+                                {
+                                    seen[k] = true;
+                                }
+                            }
                         })
                     {
                         skipped += 1;
@@ -135,17 +162,19 @@ pub(crate) fn hard_constraints(
                     }
                     walked += 1;
                 }
-                (counts, walked, skipped)
+                (counts, seen, walked, skipped)
             },
         )
         .reduce(
-            || (vec![0u32; nt], 0, 0),
-            |(mut a, wa, sa), (b, wb, sb)| {
+            || (vec![0u32; nt], vec![false; np], 0, 0),
+            |(mut a, mut sa, wa, ka), (b, sb, wb, kb)| {
                 a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
-                (a, wa + wb, sa + sb)
+                sa.iter_mut().zip(&sb).for_each(|(x, y)| *x |= y);
+                (a, sa, wa + wb, ka + kb)
             },
         );
     cancel.check()?;
+    c.probes_seen = seen;
     c.rays = walked;
     c.rays_skipped = skipped;
     for (t, &n) in counts.iter().enumerate() {
@@ -177,6 +206,58 @@ pub(crate) fn hard_constraints(
         }
     }
     Ok(c)
+}
+
+/// Probe indices per triangle, as offsets into one list.
+struct ByTriangle {
+    start: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl ByTriangle {
+    fn of(&self, t: u32) -> &[u32] {
+        match (self.start.get(t as usize), self.start.get(t as usize + 1)) {
+            (Some(&a), Some(&b)) => &self.items[a as usize..b as usize],
+            _ => &[],
+        }
+    }
+}
+
+fn probes_by_triangle(mesh: &Mesh, points: &[P2]) -> ByTriangle {
+    if points.is_empty() {
+        return ByTriangle {
+            start: Vec::new(),
+            items: Vec::new(),
+        };
+    }
+    let nt = mesh.triangles.len();
+    let mut hint = 0u32;
+    let tri: Vec<Option<u32>> = points
+        .iter()
+        .map(|&p| {
+            let t = finite(p).then(|| locate(mesh, p, hint)).flatten();
+            if let Some(t) = t {
+                hint = t;
+            }
+            t
+        })
+        .collect();
+    let mut start = vec![0u32; nt + 1];
+    for t in tri.iter().flatten() {
+        start[*t as usize + 1] += 1;
+    }
+    for i in 0..nt {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut items = vec![0u32; start[nt] as usize];
+    for (k, t) in tri.iter().enumerate() {
+        if let Some(t) = t {
+            items[fill[*t as usize] as usize] = k as u32;
+            fill[*t as usize] += 1;
+        }
+    }
+    ByTriangle { start, items }
 }
 
 fn finite(p: P2) -> bool {

@@ -265,22 +265,37 @@ pub fn label_with_report(
     let mut graph = weights::build_graph(&mesh, params.adjacent_poles_only);
     timings.graph_ms = lap();
     cancel.check()?;
-    let mut cons = constraints::hard_constraints(&mesh, samples, &[], params, cancel)?;
     // Walls carved by lines of sight from a room that saw them poorly get their backs, and the
     // constraints are found again on the mesh that holds them.
     let spacing = gaps::spacing(&mesh).filter(|_| params.wall_backs);
     let backs = spacing.map_or_else(Vec::new, |h| backs::place(&samples.samples, h));
+    let probes: Vec<crate::geom::P2> = backs.iter().map(|b| b.probes[1]).collect();
+    let mut cons = constraints::hard_constraints(
+        &mesh,
+        samples,
+        &[],
+        constraints::Probes {
+            points: &probes,
+            radius: backs::SEEN_WITHIN * spacing.unwrap_or(0.0),
+        },
+        params,
+        cancel,
+    )?;
     let mut hint = 0u32;
+    let mut k = 0;
     let carved = backs::select(&backs, spacing.unwrap_or(0.0), |b| {
-        b.probes[1..2]
-            .iter()
-            .any(|&p| match walk::locate(&mesh, p, hint) {
+        let seen = cons.probes_seen.get(k).copied().unwrap_or(true);
+        k += 1;
+        // Forced inside by lines of sight that all passed it by at a distance: a triangle
+        // reaching from the face across the wall, not open floor behind clutter.
+        !seen
+            && match walk::locate(&mesh, b.probes[1], hint) {
                 Some(t) => {
                     hint = t;
                     cons.forced[t as usize] == Some(true)
                 }
                 None => false,
-            })
+            }
     });
     let backed = carved.points.len();
     if backed > 0 {
@@ -288,7 +303,14 @@ pub fn label_with_report(
         normals.extend(&carved.normals);
         mesh = Mesh::build(&points, &normals)?;
         graph = weights::build_graph(&mesh, params.adjacent_poles_only);
-        cons = constraints::hard_constraints(&mesh, samples, &carved.solid, params, cancel)?;
+        cons = constraints::hard_constraints(
+            &mesh,
+            samples,
+            &carved.solid,
+            constraints::Probes::default(),
+            params,
+            cancel,
+        )?;
     }
     timings.constraints_ms = lap();
     let nt = mesh.triangles.len();

@@ -290,3 +290,46 @@ fn duplicate_and_non_finite_samples_do_not_panic() {
         Err(LabelingError::Mesh(MeshError::BadCoordinate(_)))
     ));
 }
+
+#[test]
+fn a_wall_seen_well_from_one_room_only_is_not_carved_by_the_other() {
+    // Rooms A [0,4]×[0,3] and B [0,4]×[3.2,6.2], a 0.2 m wall between them. B saw its face of
+    // the wall only from x = 1.5 on (a scanner that just stepped in). B's lines of sight to its
+    // west wall then cross triangles reaching from A's face, over the wall, into B.
+    let (a, b) = ([0.0, 0.0, 4.0, 3.0], [0.0, 3.2, 4.0, 6.2]);
+    let mut all = ring_samples(&rect_ring(a), 0.05, &[0]);
+    all.extend(
+        ring_samples(&rect_ring(b), 0.05, &[1])
+            .into_iter()
+            .filter(|s| !(s.pos[1] < 3.2 + 1e-9 && s.pos[0] < 1.5)),
+    );
+    let samples = WallSamples {
+        samples: all,
+        viewpoints: vec![[2.0, 1.5], [2.0, 4.7]],
+        ..Default::default()
+    };
+    let in_wall = [[0.5, 3.1], [1.0, 3.1], [1.3, 3.1]];
+    let inside_at =
+        |l: &LabeledMesh, p: P2| l.inside[walk::locate(&l.mesh, p, 0).unwrap() as usize];
+    // Without backs, the wall's end is carved: the two rooms join.
+    let off = LabelingParams {
+        wall_backs: false,
+        ..params(0)
+    };
+    let (l, r) = label_with_report(&samples, &off, &Cancel::never()).unwrap();
+    check_invariants(&l, &r);
+    assert_eq!(r.backed, 0);
+    assert!(
+        in_wall.iter().any(|&p| inside_at(&l, p)),
+        "not carved: the case shows nothing"
+    );
+    // With them, the wall stands, and both rooms are whole.
+    let (l, r) = label_with_report(&samples, &params(0), &Cancel::never()).unwrap();
+    check_invariants(&l, &r);
+    assert!(r.backed > 0);
+    for p in in_wall {
+        assert!(!inside_at(&l, p), "{p:?} carved");
+    }
+    let score = iou(&l, |p| in_rect(p, a) || in_rect(p, b));
+    assert!(score > 0.97, "IoU {score}");
+}
