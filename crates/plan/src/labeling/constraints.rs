@@ -35,7 +35,9 @@ pub(crate) struct Constraints {
     pub probes_seen: Vec<bool>,
 }
 
-/// Points to test for lines of sight passing near them, each with its radius.
+/// Points to test for lines of sight passing near them, each with its radius. Only lines of
+/// sight crossing a probe's own triangle are measured: one passing just beyond an edge of it
+/// does not count.
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct Probes<'a> {
     pub points: &'a [P2],
@@ -304,6 +306,7 @@ mod tests {
             &mesh,
             &ws,
             &[],
+            Probes::default(),
             &LabelingParams::default(),
             &Cancel::never(),
         )
@@ -340,6 +343,7 @@ mod tests {
             &mesh,
             &ws,
             &[],
+            Probes::default(),
             &LabelingParams::default(),
             &Cancel::never(),
         )
@@ -370,6 +374,7 @@ mod tests {
             &mesh,
             &ws,
             &[],
+            Probes::default(),
             &LabelingParams::default(),
             &Cancel::never(),
         )
@@ -380,5 +385,45 @@ mod tests {
             c.forced[t as usize], None,
             "the gap's straight line is not walked"
         );
+    }
+
+    #[test]
+    fn probes_near_a_line_of_sight_are_seen_and_solid_points_force_outside() {
+        let ws = room(vec![[2.0, 2.0]]);
+        let pts: Vec<P2> = ws.samples.iter().map(|s| s.pos).collect();
+        let mesh = Mesh::build(&pts, &[]).unwrap();
+        let run = |ws: &WallSamples, solid: &[P2], probes: Probes<'_>| {
+            hard_constraints(
+                &mesh,
+                ws,
+                solid,
+                probes,
+                &LabelingParams::default(),
+                &Cancel::never(),
+            )
+            .unwrap()
+        };
+        // The line of sight to the sample at (1, 0) passes (1.5, 1): a probe 9 mm from it is
+        // seen. Nothing passes a probe beyond the wall.
+        let probes = [[1.51, 1.0], [4.5, 2.0]];
+        let c = run(
+            &ws,
+            &[],
+            Probes {
+                points: &probes,
+                radius: 0.02,
+            },
+        );
+        assert_eq!(c.probes_seen, vec![true, false]);
+        // Evidence wins over a solid point: the pose's triangle stays inside.
+        let posed = locate(&mesh, [2.0, 2.0], 0).unwrap() as usize;
+        let c = run(&ws, &[[2.0, 2.0]], Probes::default());
+        assert_eq!(c.forced[posed], Some(true));
+        assert_eq!(c.solid, 0);
+        // Where nothing forced a triangle, a solid point makes it outside.
+        let blind = room(vec![]);
+        let c = run(&blind, &[[2.0, 2.0]], Probes::default());
+        assert_eq!(c.forced[posed], Some(false));
+        assert_eq!(c.solid, 1);
     }
 }
