@@ -166,7 +166,7 @@ fn main() {
         }
     }
     // The stages below run with the parameters the plan derived from the point spacing.
-    let (params, _) = params.derive(SpacingProbe::of(&cloud.xyz).spacing());
+    let (mut params, _) = params.derive(SpacingProbe::of(&cloud.xyz).spacing());
     // Scanners the cloud does not give are estimated as the plan does: from scan ids or times,
     // else pseudo-viewpoints in the open space the samples enclose.
     // (An estimated mobile path is set aside for pseudo-viewpoints, as the plan does.)
@@ -178,6 +178,8 @@ fn main() {
     }
     let mut samples = sample_walls(&cloud, story, &params.samples, &Cancel::never()).unwrap();
     if matches!(cloud.viewpoints, Viewpoints::None) && params.viewpoints.open_space {
+        // As the plan does: no backs from pseudo-viewpoints.
+        params = params.without_wall_backs();
         asbuilt_plan::viewpoints::place_open_space(
             &cloud.xyz,
             story,

@@ -137,6 +137,14 @@ pub enum ParamsError {
 }
 
 impl Params {
+    /// These parameters with `labeling.wall_backs` off: a plan from pseudo-viewpoints has no
+    /// scanner's lines of sight to put backs behind faces with.
+    pub fn without_wall_backs(&self) -> Params {
+        let mut p = self.clone();
+        p.labeling.wall_backs = false;
+        p
+    }
+
     /// Parses a TOML or JSON parameter file's text (JSON when it starts with `{`).
     pub fn from_file_text(text: &str) -> Result<Params, ParamsError> {
         if text.trim_start().starts_with('{') {
