@@ -122,6 +122,20 @@ impl PointCloud {
 
     /// Checks the cross-field invariants readers must uphold.
     pub fn check(&self) -> Result<(), String> {
+        self.check_arrays()?;
+        if self
+            .xyz
+            .par_chunks(CHECK_BLOCK)
+            .any(|b| !b.iter().all(|p| p.iter().all(|c| c.is_finite())))
+        {
+            return Err(NON_FINITE.into());
+        }
+        Ok(())
+    }
+
+    /// [`Self::check`] but for the finiteness of the coordinates, for a caller that tests it
+    /// in a pass over the points of its own (and then fails with [`NON_FINITE`]).
+    pub fn check_arrays(&self) -> Result<(), String> {
         if !self.scan.is_empty() && self.scan.len() != self.xyz.len() {
             return Err(format!(
                 "{} scan indices for {} points",
@@ -157,16 +171,12 @@ impl PointCloud {
                 ));
             }
         }
-        if self
-            .xyz
-            .par_chunks(CHECK_BLOCK)
-            .any(|b| !b.iter().all(|p| p.iter().all(|c| c.is_finite())))
-        {
-            return Err("non-finite coordinate".into());
-        }
         Ok(())
     }
 }
+
+/// What [`PointCloud::check`] says of a cloud with a non-finite coordinate.
+pub const NON_FINITE: &str = "non-finite coordinate";
 
 /// Points per parallel block of [`PointCloud::check`] and [`PointCloud::local_bounds`].
 const CHECK_BLOCK: usize = 1 << 16;

@@ -3,10 +3,12 @@
 use std::cell::RefCell;
 use std::time::Instant;
 
+use rayon::prelude::*;
+
 use crate::boundary::{trace_boundary, BoundaryError};
 use crate::cancel::{Cancel, Cancelled};
 use crate::cleanup::clean_labels;
-use crate::cloud::{PointCloud, Viewpoints};
+use crate::cloud::{PointCloud, Viewpoints, NON_FINITE};
 use crate::fitting::{fit_walls, FittingError};
 use crate::labeling::{label_with_report, LabelingError};
 use crate::params::Params;
@@ -17,7 +19,7 @@ use crate::samples::{
     check_params, sample_walls_in, Blocks, SamplesError, SpacingProbe, StoryBounds, WallSamples,
 };
 use crate::smoothing::{smooth_samples, SmoothingError};
-use crate::stories::{split_cloud_stories, StoriesError, Story};
+use crate::stories::{split_cloud_stories_within, Heights, StoriesError, Story};
 use crate::validity::{make_valid, Grid};
 use crate::viewpoints::{self, OpenSpaceStory, ViewpointSource, ViewpointsReport};
 
@@ -149,6 +151,53 @@ impl Timings {
     }
 }
 
+/// What the first stages need of every point, found in one pass over them: the cloud's
+/// memory is read once rather than three times.
+#[derive(Default)]
+struct Survey {
+    /// Every coordinate finite.
+    finite: bool,
+    /// The heights the stories are found over.
+    heights: Heights,
+    /// The sample the point spacing is measured on.
+    probe: SpacingProbe,
+}
+
+impl Survey {
+    /// Points per block: a block is read three times, from the core's cache after the first.
+    const BLOCK: usize = 1 << 16;
+
+    fn of(xyz: &[[f32; 3]]) -> Survey {
+        xyz.par_chunks(Self::BLOCK)
+            .fold(
+                || Survey {
+                    finite: true,
+                    ..Survey::default()
+                },
+                |mut s, block| {
+                    s.finite &= block.iter().all(|p| p.iter().all(|c| c.is_finite()));
+                    block.iter().for_each(|p| s.heights.add(p[2]));
+                    s.probe.add(block);
+                    s
+                },
+            )
+            .reduce(
+                || Survey {
+                    finite: true,
+                    ..Survey::default()
+                },
+                Survey::merge,
+            )
+    }
+
+    fn merge(mut self, o: Survey) -> Survey {
+        self.finite &= o.finite;
+        self.heights = self.heights.merge(o.heights);
+        self.probe.merge(o.probe);
+        self
+    }
+}
+
 /// Runs every stage on `cloud` and returns the floor plan (local coordinates + origin).
 ///
 /// ```
@@ -173,11 +222,16 @@ pub fn plan(
     if cloud.is_empty() {
         return Err(PlanError::EmptyCloud);
     }
-    cloud.check().map_err(PlanError::BadCloud)?;
+    cloud.check_arrays().map_err(PlanError::BadCloud)?;
     let mut timings = Timings::default();
     progress.report(Stage::Stories, 0.0);
-    // The point spacing chooses the grid's scale (and what follows from it).
-    let spacing = timings.time(Stage::Samples, || SpacingProbe::of(&cloud.xyz).spacing());
+    // One pass over the points for the finiteness `check` tests, the heights the stories are
+    // found over, and the point spacing, which chooses the grid's scale (and what follows).
+    let survey = timings.time(Stage::Samples, || Survey::of(&cloud.xyz));
+    if !survey.finite {
+        return Err(PlanError::BadCloud(NON_FINITE.into()));
+    }
+    let spacing = survey.probe.spacing();
     let (params, reported) = params.derive(spacing);
     let params = &params;
     let clock = Instant::now();
@@ -199,7 +253,7 @@ pub fn plan(
     // Splitting the stories and measuring their bounds are a few linear passes over the
     // points: checked between them, not inside.
     let stories = timings.time(Stage::Stories, || {
-        split_cloud_stories(&cloud.xyz, &params.stories)
+        split_cloud_stories_within(&cloud.xyz, survey.heights, &params.stories)
     })?;
     cancel.check()?;
     // One pass finds where every story's grid lies.
@@ -565,6 +619,39 @@ fn forced_area(labeled: &crate::labeling::LabeledMesh) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::stories::split_cloud_stories;
+
+    #[test]
+    fn the_survey_finds_what_the_passes_it_replaces_find() {
+        use crate::simulate::{simulate, BuildingKind, ScanOptions};
+        let options = ScanOptions {
+            points: 300_000,
+            seed: 2,
+            ..Default::default()
+        };
+        let mut cloud = simulate(BuildingKind::Office3Story, &options)
+            .unwrap()
+            .cloud;
+        let survey = Survey::of(&cloud.xyz);
+        assert!(survey.finite && cloud.check().is_ok());
+        assert_eq!(survey.probe, SpacingProbe::of(&cloud.xyz));
+        assert!(survey.probe.spacing().is_some());
+        let params = Params::default().stories;
+        assert_eq!(
+            split_cloud_stories_within(&cloud.xyz, survey.heights, &params).unwrap(),
+            split_cloud_stories(&cloud.xyz, &params).unwrap()
+        );
+        // A non-finite coordinate anywhere is found, as `check` finds it.
+        cloud.xyz[123_457][0] = f32::NAN;
+        assert!(!Survey::of(&cloud.xyz).finite);
+        assert_eq!(cloud.check(), Err(NON_FINITE.to_string()));
+        assert_eq!(
+            Survey::of(&cloud.xyz).heights,
+            Survey::of(&cloud.xyz[..123_457])
+                .heights
+                .merge(Survey::of(&cloud.xyz[123_457..]).heights)
+        );
+    }
 
     #[test]
     fn stories_failing_alike_keep_their_code() {

@@ -371,12 +371,12 @@ pub(crate) fn lintels(
         stride,
         low.0.min(z0)..=z1.max(low.1),
         empty,
-        |mut seen, q| {
+        |seen, q| {
             let z = q[2] as f64;
             let over = (z0..z1).contains(&z);
             let high = (z0..top).contains(&z);
             if !high && !(low.0..low.1).contains(&z) {
-                return seen;
+                return;
             }
             let p = [q[0] as f64, q[1] as f64];
             for &k in index.near(p) {
@@ -417,7 +417,6 @@ pub(crate) fn lintels(
                 seen.lowest[k][slice] = seen.lowest[k][slice].min(z);
                 seen.heights[k].push(z);
             }
-            seen
         },
         Seen::merge,
     );

@@ -200,13 +200,14 @@ const SHARE: usize = 1 << 18;
 impl StoryPoints<'_> {
     /// Every `stride`-th point (by index in `xyz`) with a height in `z`, and maybe others, on
     /// all cores: each share is added into its own `empty()`, and the shares merged. The
-    /// result must not depend on how the points were shared out.
+    /// result must not depend on how the points were shared out. `add` updates the
+    /// accumulator in place: moving it in and out for every point copied it.
     pub(crate) fn fold<T: Send>(
         &self,
         stride: usize,
         z: RangeInclusive<f64>,
         empty: impl Fn() -> T + Sync + Send,
-        add: impl Fn(T, &[f32; 3]) -> T + Sync + Send,
+        add: impl Fn(&mut T, &[f32; 3]) + Sync + Send,
         merge: impl Fn(T, T) -> T + Sync + Send,
     ) -> T {
         let n = self.xyz.len();
@@ -216,8 +217,11 @@ impl StoryPoints<'_> {
         };
         shares(&spans, stride, n)
             .into_par_iter()
-            .fold(&empty, |acc, r| {
-                r.step_by(stride).fold(acc, |acc, k| add(acc, &self.xyz[k]))
+            .fold(&empty, |mut acc, r| {
+                for k in r.step_by(stride) {
+                    add(&mut acc, &self.xyz[k]);
+                }
+                acc
             })
             .reduce(&empty, merge)
     }

@@ -54,10 +54,10 @@ pub(crate) fn find(
         stride,
         heights,
         empty,
-        |mut grids, q| {
+        |grids, q| {
             let z = q[2] as f64 - story.floor_z;
             if !(0.0..height).contains(&z) {
-                return grids;
+                return;
             }
             let p = [q[0] as f64, q[1] as f64];
             for &k in index.near(p) {
@@ -72,7 +72,6 @@ pub(crate) fn find(
                 let r = ((z / BIN) as usize).min(rows - 1);
                 grids[k][c * rows + r] += 1;
             }
-            grids
         },
         |mut a, b| {
             for (x, y) in a.iter_mut().zip(b) {
@@ -279,7 +278,7 @@ fn refine(windows: &mut [Piece], story: &StoryPlan, points: &StoryPoints<'_>, st
         stride,
         heights,
         empty,
-        |mut edges, q| {
+        |edges, q| {
             let z = q[2] as f64 - story.floor_z;
             let p = [q[0] as f64, q[1] as f64];
             for &k in index.near(p) {
@@ -308,7 +307,6 @@ fn refine(windows: &mut [Piece], story: &StoryPlan, points: &StoryPoints<'_>, st
                     keep(&mut e[3], z, PICK[3]);
                 }
             }
-            edges
         },
         |mut a, b| {
             for (x, y) in a.iter_mut().zip(b) {

@@ -150,12 +150,6 @@ impl Tests {
         self.local_top || self.local_bottom
     }
 
-    /// The height bin of `z` over `[floor, ceiling]`, `None` outside. Points above a lower
-    /// ceiling (rooms with a higher one) are left out rather than piled into the top bin.
-    pub fn bin_of(&self, z: f32) -> Option<u32> {
-        bin_in(z, self.floor, self.ceiling, self.bins).map(u32::from)
-    }
-
     /// Bins required non-empty overall and among the top four, for `n` points in the
     /// histogram's interior bins (all but the lowest and the highest).
     ///
@@ -247,13 +241,22 @@ impl Tests {
         self.local() || bins.iter().any(|&b| b >= 1 && b < half)
     }
 
-    /// [`Self::bin_of`] as a byte, [`NO_BIN`] for `None`, for storing beside each point.
-    #[inline]
+    /// [`BinCoder::code`] of `z`.
+    #[cfg(test)]
     pub fn bin_code(&self, z: f32) -> u8 {
-        self.bin_of(z).map_or(NO_BIN, |b| b as u8)
+        self.bin_coder().code(z)
     }
 
-    /// [`Self::run`] with each point's height bin given (see [`Self::bin_code`]). `within`
+    /// The story's height bins, as the numbers they are found from.
+    pub fn bin_coder(&self) -> BinCoder {
+        BinCoder {
+            floor: self.floor,
+            ceiling: self.ceiling,
+            bins: self.bins,
+        }
+    }
+
+    /// [`Self::run`] with each point's height bin given (see [`BinCoder::code`]). `within`
     /// is scratch for the median. `wide` gives the PCA normal and confidence of the points
     /// around a wider block, asked for only where the neighbourhood's own are not aligned and
     /// stand in a few columns (a voxel lattice).
@@ -348,6 +351,25 @@ pub(crate) const FLOORLESS_REACH: f64 = 0.6;
 /// looks the same, so it is kept only where it continues a wall seen deeper. A phone held high
 /// sees 0.7 m of the simulated room's walls; hanging lights fail the histogram (two levels).
 pub(super) const SHALLOW_REACH: f64 = 0.3;
+
+/// The story's height bins on numbers of their own (`Copy`): a pass over every point keeps
+/// them in registers rather than reading them through a reference at each point.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct BinCoder {
+    floor: f64,
+    ceiling: f64,
+    bins: usize,
+}
+
+impl BinCoder {
+    /// The height bin of `z` over `[floor, ceiling]` as a byte, [`NO_BIN`] outside, for storing
+    /// beside each point. Points above a lower ceiling (rooms with a higher one) are left out
+    /// rather than piled into the top bin.
+    #[inline]
+    pub fn code(&self, z: f32) -> u8 {
+        bin_in(z, self.floor, self.ceiling, self.bins).unwrap_or(NO_BIN)
+    }
+}
 
 /// The bin of `z` among `bins` equal bins over `[floor, top]`, `None` outside.
 #[inline]

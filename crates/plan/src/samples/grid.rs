@@ -11,7 +11,7 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 
-use super::bounds::{in_story, CellRange, GridFrame};
+use super::bounds::{CellRange, GridFrame};
 use super::cell::Reject;
 use super::SamplesError;
 use crate::cancel::Cancel;
@@ -129,10 +129,14 @@ impl Summary {
 /// number at most [`MAX_CELLS`].
 const NO_KEY: u32 = u32::MAX;
 
+/// A cell left out of the scatter: no output position is this large (a story indexes fewer
+/// than 2^32 - 1 points).
+const SKIP: u32 = u32::MAX;
+
 impl Grid {
     /// Sorts the points of `story` (those with `z_min <= z < z_max`) that fall in `range` of
     /// `frame` by cell, and summarizes each cell's heights with `bin_code`, a height's bin
-    /// (see [`super::cell::Tests::bin_code`]). Only the points in `spans` (index ranges, in
+    /// (see [`super::cell::BinCoder::code`]). Only the points in `spans` (index ranges, in
     /// order) are looked at; `None` is all. Each cell of `core` is screened by `screen` on its
     /// block's summary, and the points of a cell are kept only when it lies in the 3 × 3 block
     /// of a candidate. Points with `slice[0] <= z < slice[1]` are counted for the underlay.
@@ -145,7 +149,7 @@ impl Grid {
         frame: GridFrame,
         core: &CellRange,
         carry: Carry,
-        bin_code: impl Fn(f32) -> u8 + Sync,
+        bin_code: impl Fn(f32) -> u8 + Sync + Copy,
         screen: impl Fn(&Summary) -> Result<(), Reject> + Sync,
         slice: [f32; 2],
         cancel: &Cancel,
@@ -166,18 +170,22 @@ impl Grid {
             )));
         }
         let width = range.width();
-        // `cell_of`, with the frame's numbers hoisted out of the loop.
+        // `cell_of` and `in_story`, on copies of the frame's and the story's numbers: each
+        // thread holds its own copy of this closure, so they stay in registers.
         let (ox, oy, inv) = (frame.origin[0], frame.origin[1], 1.0 / frame.cell);
         let (last_i, last_j) = (frame.nx - 1, frame.ny - 1);
-        let key = |p: &[f32; 3]| -> Option<usize> {
-            if !in_story(story, p[2]) {
+        let (z_min, z_max) = (story.z_min, story.z_max);
+        let (is, js) = ((range.i.start, range.i.end), (range.j.start, range.j.end));
+        let key = move |p: &[f32; 3]| -> Option<usize> {
+            // As `in_story`.
+            if !((p[2] as f64) >= z_min && (p[2] as f64) < z_max) {
                 return None;
             }
             // Through i64: the same values for these non-negative numbers, and a cheaper cast.
             let i = ((((p[0] as f64 - ox) * inv) as i64) as usize).min(last_i);
             let j = ((((p[1] as f64 - oy) * inv) as i64) as usize).min(last_j);
-            (range.i.contains(&i) && range.j.contains(&j))
-                .then(|| (j - range.j.start) * width + (i - range.i.start))
+            (i >= is.0 && i < is.1 && j >= js.0 && j < js.1)
+                .then(|| (j - js.0) * width + (i - is.0))
         };
         let cells = range.cells();
 
@@ -202,6 +210,7 @@ impl Grid {
             .par_iter()
             .zip(key_parts)
             .map(|(piece, keys)| {
+                let (key, bin_code) = (key, bin_code);
                 let mut sums = vec![Summary::default(); cells];
                 let mut at = 0;
                 for r in piece.iter().cloned().flat_map(checked_pieces) {
@@ -320,8 +329,13 @@ impl Grid {
         let (keys, needed) = (&keys, &needed);
         outs.into_par_iter().for_each(|(band, p, b, s, t)| {
             let base = start[band.start];
-            let mut next: Vec<u32> = start[band.clone()].iter().map(|&v| v - base).collect();
-            let (c0, c1) = (band.start as u32, band.end as u32);
+            // Where each cell's next point goes in the band's output, or `SKIP` for a cell
+            // whose points no neighbourhood reads: one lookup a point says both.
+            let mut next: Vec<u32> = band
+                .clone()
+                .map(|c| if needed[c] { start[c] - base } else { SKIP })
+                .collect();
+            let (c0, width) = (band.start as u32, band.len() as u32);
             let mut at = 0;
             for r in spans.iter().cloned().flat_map(checked_pieces) {
                 if cancel.is_stopped() {
@@ -330,11 +344,15 @@ impl Grid {
                 for (k, q) in xyz[r.clone()].iter().enumerate() {
                     let key = keys[at];
                     at += 1;
-                    let c = key & CELL_MASK;
-                    if key == NO_KEY || c < c0 || c >= c1 || !needed[c as usize] {
+                    // `NO_KEY`'s cell lies past every held cell, so outside every band.
+                    let c = (key & CELL_MASK).wrapping_sub(c0);
+                    if c >= width {
                         continue;
                     }
-                    let slot = &mut next[(c - c0) as usize];
+                    let slot = &mut next[c as usize];
+                    if *slot == SKIP {
+                        continue;
+                    }
                     let dst = *slot as usize;
                     *slot += 1;
                     p[dst] = *q;
@@ -443,6 +461,7 @@ fn band_rows(start: &[u32], width: usize, rows: usize, parts: usize) -> Vec<Rang
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::samples::bounds::in_story;
     use crate::samples::{Blocks, StoryBounds};
 
     fn story() -> Story {
@@ -510,6 +529,79 @@ mod tests {
         // The range holds its cells and a ring of neighbours around them.
         assert_eq!(part.range, CellRange { i: 1..3, j: 0..2 });
         assert_eq!(part.block(2, 0).count(), 4);
+    }
+
+    #[test]
+    fn the_scatter_keeps_exactly_the_needed_cells_points_in_cloud_order() {
+        // Scattered points, some above the story; blocks of fewer than 12 points are rejected,
+        // so only cells near denser ones keep their points.
+        let xyz: Vec<[f32; 3]> = (0..20_000u32)
+            .map(|k| {
+                let h = k.wrapping_mul(2_654_435_761);
+                let x = (h % 1000) as f32 * 0.002 * (1.0 + (k % 7) as f32 / 7.0);
+                let y = ((h >> 10) % 1000) as f32 * 0.001;
+                let z = if k % 13 == 0 {
+                    3.0
+                } else {
+                    (k % 19) as f32 * 0.1
+                };
+                [x, y, z]
+            })
+            .collect();
+        let s = story();
+        let frame = StoryBounds::measure(&xyz, &s).frame(&s, 0.05).unwrap();
+        let range = frame.all();
+        let scan: Vec<u16> = (0..xyz.len()).map(|k| k as u16).collect();
+        let points = Points {
+            xyz: &xyz,
+            scan: &scan,
+            time: &[],
+        };
+        let g = Grid::build(
+            points,
+            Some(&[0..7_000, 9_000..20_000]),
+            &s,
+            frame,
+            &range,
+            Carry::Slots,
+            |z| (z > 0.75) as u8,
+            |b| {
+                if b.n >= 12 {
+                    Ok(())
+                } else {
+                    Err(Reject::TooFew)
+                }
+            },
+            [0.5, 1.0],
+            &Cancel::never(),
+        )
+        .unwrap();
+        let candidate = |i: usize, j: usize| g.screens[g.id(i, j)] == Screen::Candidate;
+        let (mut kept, mut skipped) = (0, 0);
+        for j in 0..frame.ny {
+            for i in 0..frame.nx {
+                let needed = g.block(i, j).any(|(a, b)| candidate(a, b));
+                let want: Vec<u16> = (0..7_000)
+                    .chain(9_000..20_000)
+                    .filter(|&k| {
+                        needed && in_story(&s, xyz[k][2]) && frame.cell_of(&xyz[k]) == (i, j)
+                    })
+                    .map(|k| k as u16)
+                    .collect();
+                let got: Vec<u16> = g.points(i, j).map(|k| g.slots[k]).collect();
+                assert_eq!(got, want, "cell ({i}, {j})");
+                for k in g.points(i, j) {
+                    assert_eq!(g.pts[k], xyz[g.slots[k] as usize]);
+                    assert_eq!(g.bins[k], (g.pts[k][2] > 0.75) as u8);
+                }
+                if needed {
+                    kept += 1
+                } else {
+                    skipped += 1
+                }
+            }
+        }
+        assert!(kept > 0 && skipped > 0, "{kept} {skipped}");
     }
 
     #[test]

@@ -300,7 +300,10 @@ pub(crate) fn scan_cells(
         *frame,
         &core,
         carry,
-        |z| tests.bin_code(z),
+        {
+            let coder = tests.bin_coder();
+            move |z| coder.code(z)
+        },
         |block| prefilter(&tests, block, min_points),
         slice_of(story).map(|z| z as f32),
         cancel,
