@@ -64,19 +64,8 @@ pub(crate) fn hard_constraints(
         forced: vec![None; nt],
         ..Default::default()
     };
-    // Where each viewpoint is; chained hints keep the walks short for a trajectory.
-    let mut hint = 0u32;
-    let vp_tri: Vec<Option<u32>> = samples
-        .viewpoints
-        .iter()
-        .map(|&p| {
-            let t = finite(p).then(|| locate(mesh, p, hint)).flatten();
-            if let Some(t) = t {
-                hint = t;
-            }
-            t
-        })
-        .collect();
+    // Where each viewpoint is.
+    let vp_tri = locate_all(mesh, &samples.viewpoints);
     c.poses_outside = vp_tri.iter().filter(|t| t.is_none()).count();
 
     let mut inside = vec![false; nt];
@@ -186,12 +175,8 @@ pub(crate) fn hard_constraints(
     }
 
     let mut walled = vec![false; nt];
-    let mut hint = 0u32;
-    for &p in solid {
-        if let Some(t) = finite(p).then(|| locate(mesh, p, hint)).flatten() {
-            walled[t as usize] = true;
-            hint = t;
-        }
+    for t in locate_all(mesh, solid).into_iter().flatten() {
+        walled[t as usize] = true;
     }
     for (t, &evidence) in inside.iter().enumerate() {
         if mesh.touches_corner(t) {
@@ -233,17 +218,7 @@ fn probes_by_triangle(mesh: &Mesh, points: &[P2]) -> ByTriangle {
         };
     }
     let nt = mesh.triangles.len();
-    let mut hint = 0u32;
-    let tri: Vec<Option<u32>> = points
-        .iter()
-        .map(|&p| {
-            let t = finite(p).then(|| locate(mesh, p, hint)).flatten();
-            if let Some(t) = t {
-                hint = t;
-            }
-            t
-        })
-        .collect();
+    let tri = locate_all(mesh, points);
     let mut start = vec![0u32; nt + 1];
     for t in tri.iter().flatten() {
         start[*t as usize + 1] += 1;
@@ -260,6 +235,23 @@ fn probes_by_triangle(mesh: &Mesh, points: &[P2]) -> ByTriangle {
         }
     }
     ByTriangle { start, items }
+}
+
+/// The triangle holding each of `points`, `None` for points outside the mesh or not finite.
+/// Each search starts from the last one found: points in order along a path or a wall walk
+/// only a few triangles.
+fn locate_all(mesh: &Mesh, points: &[P2]) -> Vec<Option<u32>> {
+    let mut hint = 0u32;
+    points
+        .iter()
+        .map(|&p| {
+            let t = finite(p).then(|| locate(mesh, p, hint)).flatten();
+            if let Some(t) = t {
+                hint = t;
+            }
+            t
+        })
+        .collect()
 }
 
 fn finite(p: P2) -> bool {
@@ -297,20 +289,25 @@ mod tests {
         }
     }
 
-    #[test]
-    fn poses_rays_and_corners_force_the_expected_triangles() {
-        let ws = room(vec![[2.0, 2.1], [1.1, 1.3]]);
-        let pts: Vec<P2> = ws.samples.iter().map(|s| s.pos).collect();
-        let mesh = Mesh::build(&pts, &[]).unwrap();
-        let c = hard_constraints(
-            &mesh,
-            &ws,
+    /// The constraints with the default parameters, no solid points and no probes.
+    fn constrain(mesh: &Mesh, ws: &WallSamples) -> Constraints {
+        hard_constraints(
+            mesh,
+            ws,
             &[],
             Probes::default(),
             &LabelingParams::default(),
             &Cancel::never(),
         )
-        .unwrap();
+        .unwrap()
+    }
+
+    #[test]
+    fn poses_rays_and_corners_force_the_expected_triangles() {
+        let ws = room(vec![[2.0, 2.1], [1.1, 1.3]]);
+        let pts: Vec<P2> = ws.samples.iter().map(|s| s.pos).collect();
+        let mesh = Mesh::build(&pts, &[]).unwrap();
+        let c = constrain(&mesh, &ws);
         assert_eq!(c.rays, 2 * ws.samples.len());
         assert_eq!(c.rays_skipped, 0);
         assert_eq!(c.inside_poses, 2);
@@ -339,15 +336,7 @@ mod tests {
         ws.path = vec![[0.5, 0.5], [3.5, 3.5], [7.0, 3.5]];
         let pts: Vec<P2> = ws.samples.iter().map(|s| s.pos).collect();
         let mesh = Mesh::build(&pts, &[]).unwrap();
-        let c = hard_constraints(
-            &mesh,
-            &ws,
-            &[],
-            Probes::default(),
-            &LabelingParams::default(),
-            &Cancel::never(),
-        )
-        .unwrap();
+        let c = constrain(&mesh, &ws);
         assert!(c.inside_path > 0);
         assert!(
             c.conflicts > 0,
@@ -370,15 +359,7 @@ mod tests {
         ];
         let pts: Vec<P2> = ws.samples.iter().map(|s| s.pos).collect();
         let mesh = Mesh::build(&pts, &[]).unwrap();
-        let c = hard_constraints(
-            &mesh,
-            &ws,
-            &[],
-            Probes::default(),
-            &LabelingParams::default(),
-            &Cancel::never(),
-        )
-        .unwrap();
+        let c = constrain(&mesh, &ws);
         assert!(c.inside_path > 0);
         let t = locate(&mesh, [2.0, 2.0], 0).unwrap();
         assert_eq!(
