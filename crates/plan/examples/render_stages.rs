@@ -176,10 +176,12 @@ fn main() {
         Some(v) => cloud.viewpoints = v.clone(),
         None => {}
     }
+    // As the plan does: backs only from a trajectory.
+    if !matches!(cloud.viewpoints, Viewpoints::Trajectory(_)) {
+        params = params.without_wall_backs();
+    }
     let mut samples = sample_walls(&cloud, story, &params.samples, &Cancel::never()).unwrap();
     if matches!(cloud.viewpoints, Viewpoints::None) && params.viewpoints.open_space {
-        // As the plan does: no backs from pseudo-viewpoints.
-        params = params.without_wall_backs();
         asbuilt_plan::viewpoints::place_open_space(
             &cloud.xyz,
             story,

@@ -137,8 +137,8 @@ pub enum ParamsError {
 }
 
 impl Params {
-    /// These parameters with `labeling.wall_backs` off: a plan from pseudo-viewpoints has no
-    /// scanner's lines of sight to put backs behind faces with.
+    /// These parameters with `labeling.wall_backs` off (the pipeline uses backs only for a
+    /// mobile scan's trajectory).
     pub fn without_wall_backs(&self) -> Params {
         let mut p = self.clone();
         p.labeling.wall_backs = false;

@@ -67,7 +67,7 @@ pub(crate) struct Backs {
 /// The backs of `samples` whose wall shows no other face. Only samples seen from a viewpoint
 /// count: their normals say which side the room is on.
 pub(crate) fn place(samples: &[WallSample], spacing: f64) -> Vec<Back> {
-    if !(spacing > 0.0) || samples.is_empty() {
+    if spacing.is_nan() || spacing <= 0.0 || samples.is_empty() {
         return Vec::new();
     }
     let index = Index::new(samples, spacing);
@@ -113,14 +113,24 @@ pub(crate) fn place(samples: &[WallSample], spacing: f64) -> Vec<Back> {
 /// The vertices and solid points of the backs `keep` accepts, one vertex per place.
 pub(crate) fn select(backs: &[Back], spacing: f64, mut keep: impl FnMut(&Back) -> bool) -> Backs {
     let mut out = Backs::default();
+    let mut placed: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
     for b in backs {
         if !keep(b) {
             continue;
         }
         out.solid.extend(b.probes);
         // Neighbouring samples of one face put their backs side by side: one is enough.
-        let near = |p: &P2| geom::dist(*p, b.point) < CLEAR * spacing;
-        if !out.points.iter().rev().take(8).any(near) {
+        let r = CLEAR * spacing;
+        let (i, j) = key(b.point, r);
+        let near = (i - 1..=i + 1).any(|x| {
+            (j - 1..=j + 1).any(|y| {
+                placed.get(&(x, y)).is_some_and(|ks: &Vec<usize>| {
+                    ks.iter().any(|&k| geom::dist(out.points[k], b.point) < r)
+                })
+            })
+        });
+        if !near {
+            placed.entry((i, j)).or_default().push(out.points.len());
             out.points.push(b.point);
             out.normals.push(b.normal);
         }
