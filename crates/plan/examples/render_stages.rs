@@ -166,7 +166,7 @@ fn main() {
         }
     }
     // The stages below run with the parameters the plan derived from the point spacing.
-    let (mut params, _) = params.derive(SpacingProbe::of(&cloud.xyz).spacing());
+    let (params, _) = params.derive(SpacingProbe::of(&cloud.xyz).spacing());
     // Scanners the cloud does not give are estimated as the plan does: from scan ids or times,
     // else pseudo-viewpoints in the open space the samples enclose.
     // (An estimated mobile path is set aside for pseudo-viewpoints, as the plan does.)
@@ -175,10 +175,6 @@ fn main() {
         Some(Viewpoints::Trajectory(_)) if params.viewpoints.open_space => {}
         Some(v) => cloud.viewpoints = v.clone(),
         None => {}
-    }
-    // As the plan does: backs only from a trajectory.
-    if !matches!(cloud.viewpoints, Viewpoints::Trajectory(_)) {
-        params = params.without_wall_backs();
     }
     let mut samples = sample_walls(&cloud, story, &params.samples, &Cancel::never()).unwrap();
     if matches!(cloud.viewpoints, Viewpoints::None) && params.viewpoints.open_space {

@@ -137,14 +137,6 @@ pub enum ParamsError {
 }
 
 impl Params {
-    /// These parameters with `labeling.wall_backs` off (the pipeline uses backs only for a
-    /// mobile scan's trajectory).
-    pub fn without_wall_backs(&self) -> Params {
-        let mut p = self.clone();
-        p.labeling.wall_backs = false;
-        p
-    }
-
     /// Parses a TOML or JSON parameter file's text (JSON when it starts with `{`).
     pub fn from_file_text(text: &str) -> Result<Params, ParamsError> {
         if text.trim_start().starts_with('{') {

@@ -291,18 +291,6 @@ pub fn plan(
         }
         Ok(samples)
     };
-    // Backs only for a mobile scan planned from its trajectory: the walker steps into rooms
-    // and sees their faces of the corridor walls poorly, where a static station stands in
-    // each room. On static scans they gained little (office 0.9996 -> 0.9999) and, on the real
-    // apartment, notched the corridor's long wall; from pseudo-viewpoints they cut holes
-    // behind clutter (a phone room) and lowered plain partitions 0.9998 -> 0.9988.
-    let without_backs;
-    let params = if params.labeling.wall_backs && !matches!(seen_from, Viewpoints::Trajectory(_)) {
-        without_backs = params.without_wall_backs();
-        &without_backs
-    } else {
-        params
-    };
     let mut summary = CloudSummary::of(cloud, cloud.len() as u64);
     summary.viewpoints = estimate.report;
     summary.open_space = Some(&open_space);

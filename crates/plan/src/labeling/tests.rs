@@ -306,6 +306,8 @@ fn a_wall_seen_well_from_one_room_only_is_not_carved_by_the_other() {
     let samples = WallSamples {
         samples: all,
         viewpoints: vec![[2.0, 1.5], [2.0, 4.7]],
+        // Backs are placed only for a mobile scan: the walker in room B.
+        path: vec![[2.0, 4.7], [2.5, 4.7]],
         ..Default::default()
     };
     let in_wall = [[0.5, 3.1], [1.0, 3.1], [1.3, 3.1]];
@@ -323,6 +325,11 @@ fn a_wall_seen_well_from_one_room_only_is_not_carved_by_the_other() {
         in_wall.iter().any(|&p| inside_at(&l, p)),
         "not carved: the case shows nothing"
     );
+    // Without a path (static scans) no backs are placed.
+    let mut still = samples.clone();
+    still.path.clear();
+    let (_, r) = label_with_report(&still, &params(0), &Cancel::never()).unwrap();
+    assert_eq!(r.backed, 0);
     // With them, the wall stands, and both rooms are whole.
     let (l, r) = label_with_report(&samples, &params(0), &Cancel::never()).unwrap();
     check_invariants(&l, &r);
