@@ -275,7 +275,10 @@ pub fn label_with_report(
         .path
         .iter()
         .any(|p| p[0].is_finite() && p[1].is_finite());
-    let spacing = gaps::spacing(&mesh).filter(|_| params.wall_backs && along_path);
+    // The spacing pass only where backs may be placed.
+    let spacing = (params.wall_backs && along_path)
+        .then(|| gaps::spacing(&mesh))
+        .flatten();
     let backs = spacing.map_or_else(Vec::new, |h| backs::place(&samples.samples, h));
     let probes: Vec<crate::geom::P2> = backs.iter().map(|b| b.probes[1]).collect();
     let mut cons = constraints::hard_constraints(
