@@ -179,7 +179,7 @@ fn main() {
     let mut samples = sample_walls(&cloud, story, &params.samples, &Cancel::never()).unwrap();
     if matches!(cloud.viewpoints, Viewpoints::None) && params.viewpoints.open_space {
         asbuilt_plan::viewpoints::place_open_space(
-            &cloud.xyz,
+            &cloud,
             story,
             &mut samples,
             &params.viewpoints,

@@ -89,6 +89,11 @@ impl PointCloud {
         self.xyz.is_empty()
     }
 
+    /// True when the points came from one moving scanner: they have times and at most one scan.
+    pub fn is_mobile(&self) -> bool {
+        !self.time.is_empty() && self.scan_ids.len() <= 1
+    }
+
     /// Builds a cloud from world coordinates, choosing the origin at the first point's floor
     /// so that `f32` local coordinates stay small.
     pub fn from_world(points: &[[f64; 3]]) -> Self {

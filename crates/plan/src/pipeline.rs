@@ -280,7 +280,7 @@ pub fn plan(
         // Timed with sampling.
         if plain {
             let placed = viewpoints::place_open_space(
-                &cloud.xyz,
+                cloud,
                 story,
                 &mut samples,
                 &params.viewpoints,

@@ -330,7 +330,9 @@ fn sparse_mobile_scan_of_the_office() {
     }
     let problems = asbuilt_plan::validity::plan_problems(&plan);
     assert!(problems.is_empty(), "{problems:?}");
-    // Without the trajectory: 0.9794 from pseudo-viewpoints in open space (no backs there). Lines of sight from the path estimated from the times
+    // Without the trajectory: pseudo-viewpoints in open space. The points' times say one
+    // scanner walked, so the corridor walls get backs as along a known path: IoU 0.9794 ->
+    // 0.9800, completeness 0.68 -> 0.90. Lines of sight from the path estimated from the times
     // gave 0.9730 with the corridors' corners put back into it, 0.9615 while it cut them
     // through the core's shafts, and 0.9504 while a scanner was assumed across its gaps and
     // beyond its ends. Issue 15 asks for 0.97, and within 0.01 of the plan with the
@@ -349,6 +351,10 @@ fn sparse_mobile_scan_of_the_office() {
     assert!(without.all_watertight(), "every story found\n{s}");
     assert!(without.min_iou() >= 0.975, "IoU without trajectory\n{s}");
     assert!(
+        without.min_completeness() >= 0.88,
+        "completeness without trajectory\n{s}"
+    );
+    assert!(
         e.min_iou() - without.min_iou() <= 0.025,
         "IoU with {} and without trajectory\n{s}",
         e.min_iou()
@@ -356,7 +362,8 @@ fn sparse_mobile_scan_of_the_office() {
     let problems = asbuilt_plan::validity::plan_problems(&plan);
     assert!(problems.is_empty(), "{problems:?}");
     // Plain x, y, z, without times either: 0.9794 (0.9139 while pseudo-viewpoints saw walls
-    // from behind, through gaps, and their lines of sight filled the core's shafts).
+    // from behind, through gaps, and their lines of sight filled the core's shafts). Nothing
+    // says a scanner walked, so no backs: behind clutter in a static room they cut holes.
     cloud.time.clear();
     let (plan, plain) = plan_and_score(&cloud, &sim, &Params::default());
     let s = plain.summary();

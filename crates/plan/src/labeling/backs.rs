@@ -45,6 +45,8 @@ const CLEAR: f64 = 0.75;
 /// A place behind a face where the wall may need a vertex.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Back {
+    /// The face's sample.
+    pub sample: usize,
     /// One typical wall thickness behind the face.
     pub point: P2,
     /// The face's normal, reversed.
@@ -90,7 +92,7 @@ pub(crate) fn place(samples: &[WallSample], spacing: f64) -> Vec<Back> {
     }
     .clamp(MIN_THICKNESS, MAX_THICKNESS);
     let mut out = Vec::new();
-    for (s, b) in samples.iter().zip(&behind) {
+    for (k, (s, b)) in samples.iter().zip(&behind).enumerate() {
         if !oriented(s) || b.is_some() {
             continue;
         }
@@ -102,6 +104,7 @@ pub(crate) fn place(samples: &[WallSample], spacing: f64) -> Vec<Back> {
         let mid = geom::sub(s.pos, geom::scale(n, thickness / 2.0));
         let along = geom::scale([-n[1], n[0]], spacing / 2.0);
         out.push(Back {
+            sample: k,
             point,
             normal: geom::scale(n, -1.0),
             probes: [geom::sub(mid, along), mid, geom::add(mid, along)],

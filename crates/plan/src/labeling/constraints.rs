@@ -5,6 +5,7 @@
 
 use rayon::prelude::*;
 
+use super::faces::Faces;
 use super::mesh::Mesh;
 use super::walk::{locate, segment_triangles};
 use super::LabelingParams;
@@ -29,6 +30,10 @@ pub(crate) struct Constraints {
     pub rays: usize,
     /// Lines of sight not walked: viewpoint outside the triangulation or a degenerate start.
     pub rays_skipped: usize,
+    /// Lines of sight dropped: they crossed a face seen straight from its other side.
+    pub rays_blocked: usize,
+    /// Mesh vertices of the faces that dropped them, sorted, each once.
+    pub blocking: Vec<u32>,
     /// Viewpoints outside the triangulation.
     pub poses_outside: usize,
     /// Per probe: a walked line of sight passed within its radius (the place is open).
@@ -49,12 +54,15 @@ pub(crate) struct Probes<'a> {
 /// `ray_fraction` of its viewpoint→sample segment, extended back to the viewpoint when
 /// `rays_from_scanner` is set. Triangles holding a point of `solid` are forced outside when
 /// nothing forced them inside. Each of `probes` is reported seen when a walked line of sight
-/// passes within its radius. Stops with `Cancelled` once `cancel` says so.
+/// passes within its radius. With `rays_stop_at_faces`, lines of sight crossing a face from
+/// behind are dropped where the face was seen straight (see `faces`); `spacing` is the samples'
+/// (`None`: no faces are found). Stops with `Cancelled` once `cancel` says so.
 pub(crate) fn hard_constraints(
     mesh: &Mesh,
     samples: &WallSamples,
     solid: &[P2],
     probes: Probes<'_>,
+    spacing: Option<f64>,
     params: &LabelingParams,
     cancel: &Cancel,
 ) -> Result<Constraints, Cancelled> {
@@ -101,74 +109,104 @@ pub(crate) fn hard_constraints(
         }
     }
 
-    // Lines of sight, counted once per ray and triangle.
+    // Lines of sight, counted once per ray and triangle. A ray that crosses a face from
+    // behind is held back until every ray has been walked (see `faces`).
     let f = params.ray_fraction.clamp(0.0, 1.0);
     let (lo, hi) = ((1.0 - f) / 2.0, (1.0 + f) / 2.0);
     let lo = if params.rays_from_scanner { 0.0 } else { lo };
     let in_triangle = probes_by_triangle(mesh, probes.points);
-    let np = probes.points.len();
-    let (counts, seen, walked, skipped) = samples
+    // Pseudo-viewpoints list only samples their lines reach across no other wall.
+    let faces = match spacing {
+        Some(h) if params.rays_stop_at_faces && !samples.lines_checked => Some(Faces::of(mesh, h)),
+        _ => None,
+    };
+    let fresh = || Walks::new(nt, probes.points.len());
+    let mut w = samples
         .samples
         .par_iter()
+        .enumerate()
         .with_min_len(256)
-        .fold(
-            || (vec![0u32; nt], vec![false; np], 0usize, 0usize),
-            |(mut counts, mut seen, mut walked, mut skipped), s| {
-                // A sample's rays may each cross the whole mesh: check once per sample.
-                if cancel.is_stopped() {
-                    return (counts, seen, walked, skipped);
+        .fold(fresh, |mut w, (k, s)| {
+            // A sample's rays may each cross the whole mesh: check once per sample.
+            if cancel.is_stopped() {
+                return w;
+            }
+            let mut direct = false;
+            for &v in &s.seen_from {
+                let (Some(&a), Some(Some(start))) =
+                    (samples.viewpoints.get(v as usize), vp_tri.get(v as usize))
+                else {
+                    w.skipped += 1;
+                    continue;
+                };
+                let hi = match params.ray_end_margin {
+                    Some(m) => hi.max(1.0 - m / geom::dist(a, s.pos).max(1e-9)),
+                    None => hi,
+                };
+                let d = geom::sub(s.pos, a);
+                // The triangles go into one buffer per thread, reused from ray to ray.
+                let mut ray = Ray {
+                    from: geom::add(a, geom::scale(d, lo)),
+                    to: geom::add(a, geom::scale(d, hi)),
+                    tris: std::mem::take(&mut w.scratch),
+                };
+                ray.tris.clear();
+                if !finite(s.pos)
+                    || !segment_triangles(mesh, *start, a, s.pos, lo, hi, |t| ray.tris.push(t))
+                {
+                    w.skipped += 1;
+                    w.scratch = ray.tris;
+                    continue;
                 }
-                for &v in &s.seen_from {
-                    let (Some(&a), Some(Some(start))) =
-                        (samples.viewpoints.get(v as usize), vp_tri.get(v as usize))
-                    else {
-                        skipped += 1;
-                        continue;
-                    };
-                    let hi = match params.ray_end_margin {
-                        Some(m) => hi.max(1.0 - m / geom::dist(a, s.pos).max(1e-9)),
-                        None => hi,
-                    };
-                    let d = geom::sub(s.pos, a);
-                    let (from, to) = (
-                        geom::add(a, geom::scale(d, lo)),
-                        geom::add(a, geom::scale(d, hi)),
-                    );
-                    if !finite(s.pos)
-                        || !segment_triangles(mesh, *start, a, s.pos, lo, hi, |t| {
-                            counts[t as usize] += 1;
-                            for &k in in_triangle.of(t) {
-                                let k = k as usize;
-                                if !seen[k]
-                                    && geom::point_segment_distance(probes.points[k], from, to)
-                                        < probes.radius
-                                {
-                                    seen[k] = true;
-                                }
-                            }
-                        })
-                    {
-                        skipped += 1;
-                        continue;
-                    }
-                    walked += 1;
+                let behind = faces
+                    .as_ref()
+                    .map_or_else(Vec::new, |f| f.crossed_from_behind(mesh, a, &ray.tris));
+                if behind.is_empty() {
+                    w.count(&ray, &in_triangle, probes);
+                    w.scratch = ray.tris;
+                    direct = true;
+                } else {
+                    w.held.push((ray, behind));
                 }
-                (counts, seen, walked, skipped)
-            },
-        )
-        .reduce(
-            || (vec![0u32; nt], vec![false; np], 0, 0),
-            |(mut a, mut sa, wa, ka), (b, sb, wb, kb)| {
-                a.iter_mut().zip(&b).for_each(|(x, y)| *x += y);
-                sa.iter_mut().zip(&sb).for_each(|(x, y)| *x |= y);
-                (a, sa, wa + wb, ka + kb)
-            },
-        );
+            }
+            if direct {
+                w.direct.push(k as u32);
+            }
+            w
+        })
+        .reduce(fresh, Walks::merge);
     cancel.check()?;
-    c.probes_seen = seen;
-    c.rays = walked;
-    c.rays_skipped = skipped;
-    for (t, &n) in counts.iter().enumerate() {
+    // A face blocks the rays crossing it from behind when a scanner in front of it saw it
+    // straight, through no other face: an opaque wall hides what lies beyond it, so what a
+    // scanner "saw" there was a mirror's image or seen through glass. A face seen only that
+    // way (a mirror's image of a wall) blocks nothing.
+    let mut direct = vec![false; samples.samples.len()];
+    w.direct.iter().for_each(|&k| direct[k as usize] = true);
+    let is_direct = |v: u32| {
+        mesh.sample_of
+            .get(v as usize)
+            .is_some_and(|&k| direct.get(k as usize).copied().unwrap_or(false))
+    };
+    for (ray, behind) in std::mem::take(&mut w.held) {
+        let mut blocked = false;
+        for &(u, v) in &behind {
+            if is_direct(u) || is_direct(v) {
+                blocked = true;
+                c.blocking.extend([u, v]);
+            }
+        }
+        if blocked {
+            c.rays_blocked += 1;
+        } else {
+            w.count(&ray, &in_triangle, probes);
+        }
+    }
+    c.blocking.sort_unstable();
+    c.blocking.dedup();
+    c.probes_seen = w.seen;
+    c.rays = w.walked;
+    c.rays_skipped = w.skipped;
+    for (t, &n) in w.counts.iter().enumerate() {
         if n >= min_rays.max(1) {
             mark(t as u32, &mut c.inside_rays, &mut inside);
         }
@@ -193,6 +231,74 @@ pub(crate) fn hard_constraints(
         }
     }
     Ok(c)
+}
+
+/// The walked part of a line of sight: its ends and the triangles it crosses, in order.
+struct Ray {
+    from: P2,
+    to: P2,
+    tris: Vec<u32>,
+}
+
+/// One thread's tally of lines of sight.
+struct Walks {
+    /// Per triangle, the lines of sight crossing it.
+    counts: Vec<u32>,
+    /// Per probe, whether a counted line of sight passed near it.
+    seen: Vec<bool>,
+    walked: usize,
+    skipped: usize,
+    /// Lines of sight crossing faces from behind, with those faces, decided once all are walked.
+    held: Vec<(Ray, Vec<(u32, u32)>)>,
+    /// Samples that some line of sight reached across no face from behind.
+    direct: Vec<u32>,
+    scratch: Vec<u32>,
+}
+
+impl Walks {
+    fn new(nt: usize, np: usize) -> Walks {
+        Walks {
+            counts: vec![0; nt],
+            seen: vec![false; np],
+            walked: 0,
+            skipped: 0,
+            held: Vec::new(),
+            direct: Vec::new(),
+            scratch: Vec::new(),
+        }
+    }
+
+    fn count(&mut self, ray: &Ray, in_triangle: &ByTriangle, probes: Probes<'_>) {
+        self.walked += 1;
+        for &t in &ray.tris {
+            self.counts[t as usize] += 1;
+            for &k in in_triangle.of(t) {
+                let k = k as usize;
+                if !self.seen[k]
+                    && geom::point_segment_distance(probes.points[k], ray.from, ray.to)
+                        < probes.radius
+                {
+                    self.seen[k] = true;
+                }
+            }
+        }
+    }
+
+    fn merge(mut self, other: Walks) -> Walks {
+        self.counts
+            .iter_mut()
+            .zip(&other.counts)
+            .for_each(|(x, y)| *x += y);
+        self.seen
+            .iter_mut()
+            .zip(&other.seen)
+            .for_each(|(x, y)| *x |= y);
+        self.walked += other.walked;
+        self.skipped += other.skipped;
+        self.held.extend(other.held);
+        self.direct.extend(other.direct);
+        self
+    }
 }
 
 /// Probe indices per triangle, as offsets into one list.
@@ -296,6 +402,7 @@ mod tests {
             ws,
             &[],
             Probes::default(),
+            None,
             &LabelingParams::default(),
             &Cancel::never(),
         )
@@ -379,6 +486,7 @@ mod tests {
                 ws,
                 solid,
                 probes,
+                None,
                 &LabelingParams::default(),
                 &Cancel::never(),
             )

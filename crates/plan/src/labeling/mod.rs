@@ -4,6 +4,8 @@
 //! - `mesh`: spade Delaunay of the samples plus four box corners.
 //! - `gaps`: vertices filled into short holes of straight rows of samples (beyond the paper).
 //! - `backs`: vertices behind faces whose wall shows no other face (beyond the paper).
+//! - `faces`: wall faces in the mesh, and lines of sight crossing them from behind (beyond the
+//!   paper).
 //! - `weights`: poles and the signed edge weights (eq. (1) for adjacent poles).
 //! - `walk`: exact straight-line walks (point location, lines of sight, the mobile path).
 //! - `constraints`: forced inside/outside triangles.
@@ -12,6 +14,7 @@
 
 mod backs;
 mod constraints;
+mod faces;
 mod gaps;
 pub(crate) mod mesh;
 mod spectral;
@@ -47,10 +50,18 @@ pub struct LabelingParams {
     pub ray_end_margin: Option<f64>,
     /// Beyond the paper: behind each face whose wall shows no other face, a vertex one typical
     /// wall thickness back (see `backs`), so a room that saw the wall poorly cannot be joined
-    /// through it to the room that saw it well. Used only for samples with a mobile path.
+    /// through it to the room that saw it well. Used only for samples of a mobile scan (its
+    /// path known, or `WallSamples::moving`).
     pub wall_backs: bool,
     /// Use only pole pairs that share an edge as negative edges (reading (b) of the design note).
     pub adjacent_poles_only: bool,
+    /// Beyond the paper (§3.3 trusts every line of sight): a line of sight that crosses a wall
+    /// face from behind, where a scanner in front of that face saw it straight, forces nothing.
+    /// An opaque wall hides what lies beyond it, so the points the scanner recorded there were
+    /// a mirror's image or seen through glass; their lines of sight cut the wall away (the real
+    /// apartment's bathroom mirror carved the wall between bathroom and kitchen). Such a face
+    /// gets backs (see `backs`) where its wall shows no other face.
+    pub rays_stop_at_faces: bool,
     /// Node count below which the eigenproblem is solved densely (design note §3 suggests ~3000).
     /// Measured (release, 2 cores): sparse shift-invert takes under 1 ms at 560 triangles where
     /// dense takes 34 ms, and 6 ms at 4.7k where dense takes 7.4 s; so dense only for tiny graphs.
@@ -91,6 +102,7 @@ impl Default for LabelingParams {
             ray_end_margin: Some(0.15),
             wall_backs: true,
             adjacent_poles_only: false,
+            rays_stop_at_faces: true,
             dense_below: 200,
             max_disagreement: 0.02,
             solver: Solver::Eigen,
@@ -182,6 +194,8 @@ pub struct LabelingReport {
     pub rays: usize,
     /// Lines of sight skipped.
     pub rays_skipped: usize,
+    /// Lines of sight dropped because they crossed a face seen straight from its other side.
+    pub rays_blocked: usize,
     /// Free nodes of the constrained system (its size is this + 1).
     pub free_nodes: usize,
     /// The computation whose labels were used.
@@ -262,25 +276,29 @@ pub fn label_with_report(
     }
     timings.mesh_ms = lap();
     cancel.check()?;
-    let mut graph = weights::build_graph(&mesh, params.adjacent_poles_only);
-    timings.graph_ms = lap();
-    cancel.check()?;
-    // Walls carved by lines of sight from a room that saw them poorly get their backs, and the
-    // constraints are found again on the mesh that holds them.
-    // Only along a mobile trajectory: the walker steps into rooms and sees their faces of the
-    // corridor walls poorly, where a static station stands in each room. On static scans backs
-    // gained little (office 0.9996 -> 0.9999) and notched the real apartment's corridor wall
-    // (longest line 8.6 -> 4.8 m); from pseudo-viewpoints they cut holes behind clutter.
+    // Walls carved by lines of sight from a room that saw them poorly, or by a scanner seeing
+    // through a face from behind (a mirror), get their backs, and the constraints are found
+    // again on the mesh that holds them.
+    // Carved walls only for a mobile scan (along its trajectory, or from pseudo-viewpoints when
+    // its path is unknown): the walker steps into rooms and sees their
+    // faces of the corridor walls poorly, where a static station stands in each room. On static
+    // scans backs gained little (office 0.9996 -> 0.9999) and notched the real apartment's
+    // corridor wall (longest line 8.6 -> 4.8 m); from pseudo-viewpoints they cut holes behind
+    // clutter.
     let along_path = samples
         .path
         .iter()
         .any(|p| p[0].is_finite() && p[1].is_finite());
-    // The spacing pass only where backs may be placed.
-    let spacing = (params.wall_backs && along_path)
+    let carving = params.wall_backs && (along_path || samples.moving);
+    // The spacing pass only where it is used.
+    let spacing = (carving || params.rays_stop_at_faces)
         .then(|| gaps::spacing(&mesh))
         .flatten();
-    let backs = spacing.map_or_else(Vec::new, |h| backs::place(&samples.samples, h));
-    let probes: Vec<crate::geom::P2> = backs.iter().map(|b| b.probes[1]).collect();
+    let candidates = match spacing {
+        Some(h) if carving => backs::place(&samples.samples, h),
+        _ => Vec::new(),
+    };
+    let probes: Vec<crate::geom::P2> = candidates.iter().map(|b| b.probes[1]).collect();
     let mut cons = constraints::hard_constraints(
         &mesh,
         samples,
@@ -289,17 +307,36 @@ pub fn label_with_report(
             points: &probes,
             radius: backs::SEEN_WITHIN * spacing.unwrap_or(0.0),
         },
+        spacing,
         params,
         cancel,
     )?;
+    // Samples of the faces that blocked a line of sight from behind.
+    let mut blocking = vec![false; samples.samples.len()];
+    for &v in &cons.blocking {
+        if let Some(&k) = mesh.sample_of.get(v as usize) {
+            if let Some(b) = blocking.get_mut(k as usize) {
+                *b = true;
+            }
+        }
+    }
+    let mirrored = match spacing {
+        Some(h) if !carving && !cons.blocking.is_empty() => backs::place(&samples.samples, h),
+        _ => Vec::new(),
+    };
     let mut hint = 0u32;
     let mut k = 0;
-    let carved = backs::select(&backs, spacing.unwrap_or(0.0), |b| {
+    let candidates = if carving { &candidates } else { &mirrored };
+    let chosen = backs::select(candidates, spacing.unwrap_or(0.0), |b| {
         let seen = cons.probes_seen.get(k).copied().unwrap_or(true);
         k += 1;
+        if blocking[b.sample] {
+            return true;
+        }
         // Forced inside by lines of sight that all passed it by at a distance: a triangle
         // reaching from the face across the wall, not open floor behind clutter.
-        !seen
+        carving
+            && !seen
             && match walk::locate(&mesh, b.probes[1], hint) {
                 Some(t) => {
                     hint = t;
@@ -308,22 +345,26 @@ pub fn label_with_report(
                 None => false,
             }
     });
-    let backed = carved.points.len();
+    let backed = chosen.points.len();
     if backed > 0 {
-        points.extend(&carved.points);
-        normals.extend(&carved.normals);
+        points.extend(&chosen.points);
+        normals.extend(&chosen.normals);
         mesh = Mesh::build(&points, &normals)?;
-        graph = weights::build_graph(&mesh, params.adjacent_poles_only);
+        cancel.check()?;
         cons = constraints::hard_constraints(
             &mesh,
             samples,
-            &carved.solid,
+            &chosen.solid,
             constraints::Probes::default(),
+            spacing,
             params,
             cancel,
         )?;
     }
     timings.constraints_ms = lap();
+    cancel.check()?;
+    let graph = weights::build_graph(&mesh, params.adjacent_poles_only);
+    timings.graph_ms = lap();
     let nt = mesh.triangles.len();
     let reduced = spectral::Reduced::new(nt, &graph.edges, &cons.forced);
     let want_eigen = params.solver == Solver::Eigen;
@@ -350,6 +391,7 @@ pub fn label_with_report(
         conflicts: cons.conflicts,
         rays: cons.rays,
         rays_skipped: cons.rays_skipped,
+        rays_blocked: cons.rays_blocked,
         free_nodes: reduced.k,
         method: Method::Harmonic,
         eigenvalue: sol.lambda,

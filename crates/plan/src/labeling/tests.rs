@@ -325,11 +325,21 @@ fn a_wall_seen_well_from_one_room_only_is_not_carved_by_the_other() {
         in_wall.iter().any(|&p| inside_at(&l, p)),
         "not carved: the case shows nothing"
     );
-    // Without a path (static scans) no backs are placed.
+    // Without a path (static scans) no backs are placed...
     let mut still = samples.clone();
     still.path.clear();
     let (_, r) = label_with_report(&still, &params(0), &Cancel::never()).unwrap();
     assert_eq!(r.backed, 0);
+    // ...unless the points say a scanner walked (times, path unknown).
+    let walked = WallSamples {
+        moving: true,
+        ..still
+    };
+    let (l, r) = label_with_report(&walked, &params(0), &Cancel::never()).unwrap();
+    assert!(r.backed > 0);
+    for p in in_wall {
+        assert!(!inside_at(&l, p), "{p:?} carved without the path");
+    }
     // With them, the wall stands, and both rooms are whole.
     let (l, r) = label_with_report(&samples, &params(0), &Cancel::never()).unwrap();
     check_invariants(&l, &r);
@@ -339,4 +349,77 @@ fn a_wall_seen_well_from_one_room_only_is_not_carved_by_the_other() {
     }
     let score = iou(&l, |p| in_rect(p, a) || in_rect(p, b));
     assert!(score > 0.97, "IoU {score}");
+}
+
+/// Two 4 m rooms side by side, A (x 0..4) and B (x 4.1..8), a wall between them of which only
+/// A's face (x = 4) was sampled: B's face is a mirror. B's scanner recorded the mirror's image
+/// of its room as points beyond the wall, inside A (a row at x = 1, facing B).
+fn mirror_rooms() -> WallSamples {
+    let (a, b) = (0u32, 1u32);
+    let mut samples = Vec::new();
+    let mut row = |from: P2, to: P2, normal: P2, seen: u32| {
+        let n = (crate::geom::dist(from, to) / 0.05).round() as usize;
+        for k in 0..=n {
+            let t = k as f64 / n as f64;
+            samples.push(WallSample {
+                pos: [
+                    from[0] + t * (to[0] - from[0]),
+                    from[1] + t * (to[1] - from[1]),
+                ],
+                normal,
+                confidence: 1.0,
+                seen_from: vec![seen],
+            });
+        }
+    };
+    // Room A: left, bottom and top walls, and its face of the shared wall.
+    row([0.0, 0.0], [0.0, 4.0], [1.0, 0.0], a);
+    row([0.05, 0.0], [3.95, 0.0], [0.0, 1.0], a);
+    row([0.05, 4.0], [3.95, 4.0], [0.0, -1.0], a);
+    row([4.0, 0.0], [4.0, 4.0], [-1.0, 0.0], a);
+    // Room B: bottom, top and right walls; its face of the shared wall gave nothing.
+    row([4.1, 0.0], [7.95, 0.0], [0.0, 1.0], b);
+    row([4.1, 4.0], [7.95, 4.0], [0.0, -1.0], b);
+    row([8.0, 0.0], [8.0, 4.0], [-1.0, 0.0], b);
+    // The mirror's image of B's right wall, seen from B through the shared wall.
+    row([1.0, 1.0], [1.0, 3.0], [1.0, 0.0], b);
+    WallSamples {
+        samples,
+        viewpoints: vec![[2.0, 2.0], [6.0, 2.0]],
+        ..Default::default()
+    }
+}
+
+#[test]
+fn a_scanner_seeing_through_a_wall_face_seen_from_its_other_side_does_not_carve_it() {
+    let samples = mirror_rooms();
+    let inside_at =
+        |l: &LabeledMesh, p: P2| l.inside[walk::locate(&l.mesh, p, 0).unwrap() as usize];
+    // Without the rule, B's lines of sight to the image cross the wall: both rooms are one.
+    let off = LabelingParams {
+        rays_stop_at_faces: false,
+        ..params(0)
+    };
+    let (l, r) = label_with_report(&samples, &off, &Cancel::never()).unwrap();
+    check_invariants(&l, &r);
+    assert_eq!((r.rays_blocked, r.backed), (0, 0));
+    assert!(
+        inside_at(&l, [4.05, 2.0]),
+        "the paper's rule carves the wall"
+    );
+    // With it, those lines of sight are dropped and the wall keeps a back behind A's face.
+    let (l, r) = label_with_report(&samples, &params(0), &Cancel::never()).unwrap();
+    check_invariants(&l, &r);
+    assert_eq!(r.rays_blocked, 41, "B's lines of sight to the image");
+    assert!(r.backed > 0);
+    // Where those lines of sight crossed it (y 1.6 to 2.4).
+    for y in [1.7, 2.0, 2.3] {
+        assert!(!inside_at(&l, [4.05, y]), "the wall at y = {y}");
+    }
+    assert!(inside_at(&l, [2.0, 2.0]) && inside_at(&l, [6.0, 2.0]));
+    assert!(
+        iou(&l, |p| in_rect(p, [0.0, 0.0, 4.0, 4.0])
+            || in_rect(p, [4.1, 0.0, 8.0, 4.0]))
+            > 0.95
+    );
 }

@@ -134,6 +134,15 @@ pub struct WallSamples {
     /// kept because it continues a wall seen deeper.
     #[serde(default)]
     pub shallow_kept: f64,
+    /// The viewpoints were placed where their straight lines to the samples they list cross no
+    /// other wall (pseudo-viewpoints in open space), so labeling need not check it again.
+    #[serde(default)]
+    pub lines_checked: bool,
+    /// The points came from one moving scanner whose path is not known (its lines of sight come
+    /// from pseudo-viewpoints): a walker who only stepped into a room saw its faces of the
+    /// corridor walls poorly, as along a known path (see the labeling's backs).
+    #[serde(default)]
+    pub moving: bool,
     /// The story's points at mid-height on this grid, drawn under the plan (not serialized).
     #[serde(skip)]
     pub underlay: Option<Underlay>,
@@ -440,6 +449,8 @@ pub(crate) fn finish_samples(
         min_points_lowest: thresholds.lowest(),
         cells_tested,
         shallow_kept,
+        lines_checked: false,
+        moving: false,
         underlay,
     })
 }

@@ -242,9 +242,10 @@ pub struct Estimate {
 
 /// Places pseudo-viewpoints in `story`'s open space for plain x, y, z (see [`open_space`]):
 /// `samples` get them as viewpoints, each sample the ones that see it. A story without a
-/// floor seen lets more directions escape. `max_range` is the scanner range of sampling.
+/// floor seen lets more directions escape. `max_range` is the scanner range of sampling. The
+/// samples are marked `moving` when the cloud is a mobile scan (its path unknown).
 pub fn place_open_space(
-    xyz: &[[f32; 3]],
+    cloud: &PointCloud,
     story: &crate::stories::Story,
     samples: &mut crate::samples::WallSamples,
     params: &ViewpointsParams,
@@ -255,7 +256,8 @@ pub fn place_open_space(
         open_space_max_escape: escape,
         ..params.clone()
     };
-    open_space::place(xyz, story, samples, &params, max_range)
+    samples.moving = cloud.is_mobile();
+    open_space::place(&cloud.xyz, story, samples, &params, max_range)
 }
 
 /// Looks at what the cloud says about its scanners and estimates what it does not say.
@@ -275,8 +277,7 @@ pub fn estimate(cloud: &PointCloud, params: &ViewpointsParams) -> Estimate {
         Viewpoints::Static(poses) => estimate_static(cloud, Some(poses), &counts, params),
         // A trajectory is always given (above).
         Viewpoints::None | Viewpoints::Trajectory(_) => {
-            let mobile = !cloud.time.is_empty() && cloud.scan_ids.len() <= 1;
-            if mobile {
+            if cloud.is_mobile() {
                 path::estimate_path(cloud, params)
             } else if !cloud.scan_ids.is_empty() && !cloud.scan.is_empty() {
                 estimate_static(cloud, None, &counts, params)

@@ -140,6 +140,7 @@ pub(crate) fn place(
         s.seen_from = from;
     }
     samples.viewpoints = places.clone();
+    samples.lines_checked = true;
     report.viewpoints = places;
     report
 }
