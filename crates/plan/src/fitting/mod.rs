@@ -182,8 +182,14 @@ fn check_params(p: &FittingParams) -> Result<(), FittingError> {
     check("arc_chord_error", p.arc_chord_error)
 }
 
-/// Fits lines and circles to the boundary and rebuilds it on the models. Stops with
-/// `Cancelled` once `cancel` says so.
+/// Random starts tried in all when the fitted walls cross: each search from another seed.
+const STARTS: u64 = 4;
+
+/// Fits lines and circles to the boundary and rebuilds it on the models. Where the rebuilt
+/// walls cross, RANSAC starts again from other seeds (up to [`STARTS`] in all) and the fit with
+/// the fewest crossings is kept, the first on a tie: a crossing is models disagreeing with the
+/// traced boundary, and its repair can join rooms through a sliver (the real apartment's
+/// bathroom and bedroom, with one seed in two). Stops with `Cancelled` once `cancel` says so.
 pub fn fit_walls(
     labeled: &LabeledMesh,
     boundary: &Boundary,
@@ -192,6 +198,43 @@ pub fn fit_walls(
 ) -> Result<FittedStory, FittingError> {
     check_params(params)?;
     let (samples, rings, exterior_of) = collect_samples(labeled, boundary);
+    let first = fit_once(labeled, &samples, &rings, &exterior_of, params, cancel)?;
+    let crossings = first.1;
+    let mut best = first;
+    for k in 1..STARTS {
+        if best.1 == 0 {
+            break;
+        }
+        let other = FittingParams {
+            seed: params.seed.wrapping_add(k),
+            ..params.clone()
+        };
+        let next = fit_once(labeled, &samples, &rings, &exterior_of, &other, cancel)?;
+        if next.1 < best.1 {
+            best = next;
+        }
+    }
+    let (mut fitted, left) = best;
+    if left < crossings {
+        fitted.notes.insert(
+            0,
+            format!(
+                "fitting: the first fit's walls crossed {crossings} time(s); another random start crossed {left}"
+            ),
+        );
+    }
+    Ok(fitted)
+}
+
+/// One fit from `params.seed`, with the number of crossings and folds its rebuilt rings had.
+fn fit_once(
+    labeled: &LabeledMesh,
+    samples: &BoundarySamples,
+    rings: &[Vec<usize>],
+    exterior_of: &[Option<usize>],
+    params: &FittingParams,
+    cancel: &Cancel,
+) -> Result<(FittedStory, usize), FittingError> {
     let consensus = ransac::find_models(&samples, params, cancel)?;
     let models = consensus.models;
     let mut assigned = consensus.assigned;
@@ -265,11 +308,14 @@ pub fn fit_walls(
         }
     }
     let walls = rebuilt.into_iter().flat_map(|r| r.walls).collect();
-    Ok(FittedStory {
-        polygons,
-        walls,
-        notes,
-    })
+    Ok((
+        FittedStory {
+            polygons,
+            walls,
+            notes,
+        },
+        problems.len(),
+    ))
 }
 
 /// The boundary's vertices as samples, each ring as a list of sample indices, and for each
