@@ -235,11 +235,11 @@ fn fit_once(
     params: &FittingParams,
     cancel: &Cancel,
 ) -> Result<(FittedStory, usize), FittingError> {
-    let consensus = ransac::find_models(&samples, params, cancel)?;
+    let consensus = ransac::find_models(samples, params, cancel)?;
     let models = consensus.models;
     let mut assigned = consensus.assigned;
     grow::reset_small_components(
-        &samples,
+        samples,
         &models,
         &mut assigned,
         params.min_component,
@@ -249,7 +249,7 @@ fn fit_once(
     // A face more than half the inlier band behind a model is another wall face.
     let behind = params.inlier_distance / 2.0;
     grow::grow(
-        &samples,
+        samples,
         &models,
         &mut assigned,
         params.grow_hops,
@@ -276,7 +276,7 @@ fn fit_once(
         .map(|(pos, a)| rebuild::rebuild_ring(pos, a, &models, params, &empty))
         .collect();
     let points: Vec<Vec<P2>> = rebuilt.iter().map(|r| r.points.clone()).collect();
-    let problems = simple::problems(&points, &exterior_of);
+    let problems = simple::problems(&points, exterior_of);
     let mut polygons: Vec<Polygon> = Vec::new();
     for (r, ext) in exterior_of.iter().enumerate() {
         let points = points[r].clone();
