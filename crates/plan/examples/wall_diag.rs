@@ -4,7 +4,7 @@
 //! `wall_diag --input FILE [--poses F] [--drop-slot N] LEVEL AX,AY,BX,BY` (`DUMP=FILE` writes
 //! the points around as x y z slot).
 use asbuilt_plan::cloud::Viewpoints;
-use asbuilt_plan::geom::P2;
+use asbuilt_plan::geom::{cross, sub, P2};
 use asbuilt_plan::io::{self, poses};
 use asbuilt_plan::labeling::label_with_report;
 use asbuilt_plan::samples::{sample_walls, SpacingProbe};
@@ -13,13 +13,6 @@ use asbuilt_plan::stories::split_stories;
 use asbuilt_plan::Cancel;
 use asbuilt_plan::Params;
 
-fn cross(a: P2, b: P2) -> f64 {
-    a[0] * b[1] - a[1] * b[0]
-}
-fn sub(a: P2, b: P2) -> P2 {
-    [a[0] - b[0], a[1] - b[1]]
-}
-/// Parameter along p->q where it crosses a->b, if it does.
 fn seg_hit(p: P2, q: P2, a: P2, b: P2) -> Option<(f64, f64)> {
     let r = sub(q, p);
     let s = sub(b, a);
