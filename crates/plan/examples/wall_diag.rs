@@ -145,23 +145,20 @@ fn main() {
     } else {
         (1.0 - f) / 2.0
     };
+    // The walked part of the line of sight from `vp` to `pos`, as the labeling walks it.
+    let ray = |vp: P2, pos: P2| {
+        let dd = asbuilt_plan::geom::dist(vp, pos);
+        let hi = match lp.ray_end_margin {
+            Some(m) => ((1.0 + f) / 2.0).max(1.0 - m / dd.max(1e-9)),
+            None => (1.0 + f) / 2.0,
+        };
+        let at = |k: f64| [vp[0] + k * (pos[0] - vp[0]), vp[1] + k * (pos[1] - vp[1])];
+        (at(lo), at(hi))
+    };
     let mut per_vp: std::collections::BTreeMap<u32, Vec<(P2, f64)>> = Default::default();
     for s in &samples.samples {
         for &vi in &s.seen_from {
-            let vp = samples.viewpoints[vi as usize];
-            let dd = asbuilt_plan::geom::dist(vp, s.pos);
-            let hi = match lp.ray_end_margin {
-                Some(m) => ((1.0 + f) / 2.0).max(1.0 - m / dd.max(1e-9)),
-                None => (1.0 + f) / 2.0,
-            };
-            let p = [
-                vp[0] + lo * (s.pos[0] - vp[0]),
-                vp[1] + lo * (s.pos[1] - vp[1]),
-            ];
-            let q = [
-                vp[0] + hi * (s.pos[0] - vp[0]),
-                vp[1] + hi * (s.pos[1] - vp[1]),
-            ];
+            let (p, q) = ray(samples.viewpoints[vi as usize], s.pos);
             if let Some((_, u)) = seg_hit(p, q, a, b) {
                 per_vp.entry(vi).or_default().push((s.pos, u));
             }
@@ -224,20 +221,7 @@ fn main() {
         let mut by: std::collections::BTreeMap<u32, usize> = Default::default();
         for s in &samples.samples {
             for &vi in &s.seen_from {
-                let vp = samples.viewpoints[vi as usize];
-                let dd = asbuilt_plan::geom::dist(vp, s.pos);
-                let hi = match lp.ray_end_margin {
-                    Some(m) => ((1.0 + f) / 2.0).max(1.0 - m / dd.max(1e-9)),
-                    None => (1.0 + f) / 2.0,
-                };
-                let p0 = [
-                    vp[0] + lo * (s.pos[0] - vp[0]),
-                    vp[1] + lo * (s.pos[1] - vp[1]),
-                ];
-                let q0 = [
-                    vp[0] + hi * (s.pos[0] - vp[0]),
-                    vp[1] + hi * (s.pos[1] - vp[1]),
-                ];
+                let (p0, q0) = ray(samples.viewpoints[vi as usize], s.pos);
                 let hit = (0..3).any(|e| seg_hit(p0, q0, p[e], p[(e + 1) % 3]).is_some())
                     || inside_tri(p, p0)
                     || inside_tri(p, q0);
