@@ -4,12 +4,14 @@
 # coordinates), then the issue's bounds on that ideal.
 #   target/release/examples/score dense_office_voxels 4000000 34 --out /tmp/vox
 #   python3 benches/voxel_rooms_ideal.py /tmp/vox
-# Per level: rooms within the area bound, ideal and plan; the worst area error of each; the
-# largest interior wall thickness error, ideal and plan (the plan's centre lines measured as
-# evaluate/rooms.rs does).
+# Per level: the story's IoU against the truth, ideal and plan (and plan against ideal); rooms
+# within the area bound, ideal and plan; the worst area error of each; the largest interior
+# wall thickness error, ideal and plan (the plan's centre lines measured as evaluate/rooms.rs
+# does).
 import json, math, sys
 import numpy as np
-from shapely.geometry import Polygon, shape
+from shapely.geometry import MultiPolygon, Polygon, shape
+from shapely.ops import unary_union
 
 V = 0.08
 D = sys.argv[1]
@@ -23,6 +25,17 @@ def q(c):
 
 def kind(doc, k, level):
     return [f for f in doc['features'] if f['properties'].get('kind') == k and f['properties']['level'] == level]
+
+
+def quantised(g):
+    polys = g.geoms if isinstance(g, MultiPolygon) else [g]
+    return unary_union([Polygon([(q(x), q(y)) for x, y in p.exterior.coords],
+                                [[(q(x), q(y)) for x, y in h.coords] for h in p.interiors]).buffer(0)
+                        for p in polys])
+
+
+def iou(a, b):
+    return a.intersection(b).area / a.union(b).area
 
 
 def within(a, t):
@@ -80,6 +93,11 @@ for level in sorted({f['properties']['level'] for f in T['features'] if 'level' 
         # Axis-aligned faces: the coordinate across the wall, quantised on each side.
         ax = 0 if abs(n[0]) > abs(n[1]) else 1
         th_i = max(th_i, abs(abs(q(left[1][ax]) - q(right[1][ax])) - t))
+    story_t = unary_union([shape(f['geometry']) for f in kind(T, 'story', level)])
+    story_p = unary_union([shape(f['geometry']) for f in kind(P, 'story', level)])
+    story_i = quantised(story_t)
+    print(f'level {level}: story IoU ideal {iou(story_i, story_t):.4f} plan {iou(story_p, story_t):.4f} '
+          f'plan vs ideal {iou(story_p, story_i):.4f}')
     print(f'level {level}: rooms within bound ideal {ok_i}/{len(truth)} plan {ok_p}/{len(truth)}; '
           f'worst area error ideal {100 * worst_i:.2f} % plan {100 * worst_p:.2f} %; '
           f'wall thickness max error ideal {th_i:.3f} m plan {th_p:.3f} m')
