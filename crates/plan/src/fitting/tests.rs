@@ -481,7 +481,7 @@ fn crossing_fits_start_again_and_keep_the_fewest_crossings() {
         ..FittingParams::default()
     };
     let mut saved = 0;
-    for seed in 0..12 {
+    for seed in 0..24 {
         let mut truth = Vec::new();
         for i in 0..3 {
             for j in 0..2 {
