@@ -11,7 +11,6 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 
-use super::bands::{self, Bands, BAND_CELLS};
 use super::bounds::{CellRange, GridFrame};
 use super::cell::Reject;
 use super::SamplesError;
@@ -23,7 +22,7 @@ use crate::stories::Story;
 const POINTS_PER_CHECK: usize = 1 << 16;
 
 /// `r` cut into consecutive pieces of at most [`POINTS_PER_CHECK`].
-pub(super) fn checked_pieces(r: Range<usize>) -> impl Iterator<Item = Range<usize>> {
+fn checked_pieces(r: Range<usize>) -> impl Iterator<Item = Range<usize>> {
     r.clone()
         .step_by(POINTS_PER_CHECK)
         .map(move |s| s..(s + POINTS_PER_CHECK).min(r.end))
@@ -48,7 +47,7 @@ pub(super) enum Screen {
 /// A point's key in the counting pass holds its held cell in these low bits and its height
 /// bin code in the byte above.
 const CELL_BITS: u32 = 24;
-pub(super) const CELL_MASK: u32 = (1 << CELL_BITS) - 1;
+const CELL_MASK: u32 = (1 << CELL_BITS) - 1;
 
 /// What each point brings along into the grid besides its coordinates: whatever tells which
 /// scanner saw it.
@@ -128,7 +127,7 @@ impl Summary {
 
 /// The key of a point outside the story or the held cells. No held cell has it: the cells
 /// number at most [`MAX_CELLS`].
-pub(super) const NO_KEY: u32 = u32::MAX;
+const NO_KEY: u32 = u32::MAX;
 
 /// A cell left out of the scatter: no output position is this large (a story indexes fewer
 /// than 2^32 - 1 points).
@@ -154,26 +153,6 @@ impl Grid {
         screen: impl Fn(&Summary) -> Result<(), Reject> + Sync,
         slice: [f32; 2],
         cancel: &Cancel,
-    ) -> Result<Grid, SamplesError> {
-        Self::build_in_bands(
-            points, spans, story, frame, core, carry, bin_code, screen, slice, cancel, BAND_CELLS,
-        )
-    }
-
-    /// [`Self::build`] with bands of about `band_cells` cells (see [`super::bands`]).
-    #[allow(clippy::too_many_arguments)]
-    fn build_in_bands(
-        points: Points<'_>,
-        spans: Option<&[Range<usize>]>,
-        story: &Story,
-        frame: GridFrame,
-        core: &CellRange,
-        carry: Carry,
-        bin_code: impl Fn(f32) -> u8 + Sync + Copy,
-        screen: impl Fn(&Summary) -> Result<(), Reject> + Sync,
-        slice: [f32; 2],
-        cancel: &Cancel,
-        band_cells: usize,
     ) -> Result<Grid, SamplesError> {
         let xyz = points.xyz;
         let range = core.grown(&frame);
@@ -210,13 +189,12 @@ impl Grid {
         };
         let cells = range.cells();
 
-        // The key pass, over pieces of the spans: each point's key (held cell and height bin
-        // code), recorded so no later pass need find it again. Every key is written here, so
-        // the array starts as zeroed pages that each thread faults in for its part.
+        // The counting pass, one part of the spans per thread: every cell's summary, and each
+        // point's key, recorded so the scatter need not find it again. Every key is written
+        // here, so the array starts as zeroed pages that each thread faults in for its part.
         let parts = rayon::current_num_threads().max(1);
         let total: usize = spans.iter().map(|r| r.len()).sum();
-        // A few pieces a thread, for balance; each piece has its own place in every band.
-        let pieces = split_spans(&spans, total.div_ceil(4 * parts).max(POINTS_PER_CHECK));
+        let pieces = split_spans(&spans, total.div_ceil(parts).max(1));
         let mut keys = vec![0u32; total];
         let mut key_parts = Vec::with_capacity(pieces.len());
         {
@@ -228,72 +206,44 @@ impl Grid {
                 rest = r;
             }
         }
-        pieces.par_iter().zip(key_parts).for_each(|(piece, keys)| {
-            let (key, bin_code) = (key, bin_code);
-            let mut at = 0;
-            for r in piece.iter().cloned().flat_map(checked_pieces) {
-                if cancel.is_stopped() {
-                    return;
-                }
-                let pts = &xyz[r];
-                for (slot, p) in keys[at..at + pts.len()].iter_mut().zip(pts) {
-                    // The bin rides along for the summaries and the scatter.
-                    *slot = match key(p) {
-                        Some(c) => c as u32 | u32::from(bin_code(p[2])) << CELL_BITS,
-                        None => NO_KEY,
-                    };
-                }
-                at += pts.len();
-            }
-        });
-        cancel.check()?;
-
-        // The points bucketed by band of rows, in cloud order within each band.
-        let bands = Bands::new(width, cells, band_cells);
-        let bucketed = {
-            let key_parts: Vec<&[u32]> = {
-                let mut rest = &keys[..];
-                pieces
-                    .iter()
-                    .map(|piece| {
-                        let (k, r) = rest.split_at(piece.iter().map(|r| r.len()).sum());
-                        rest = r;
-                        k
-                    })
-                    .collect()
-            };
-            let counts = bands::count(&bands, &key_parts);
-            bands::bucket(points, &pieces, &key_parts, &counts, &bands, carry, cancel)
-        };
-        drop(keys);
-        cancel.check()?;
-
-        // The counting pass, a band per task: every cell's summary, from the band's points
-        // only, into the band's own rows of the summaries.
-        let mut summaries = vec![Summary::default(); cells];
-        summaries
-            .par_chunks_mut(bands.cells(0).len().max(1))
-            .enumerate()
-            .for_each(|(b, sums)| {
-                let c0 = bands.cells(b).start as u32;
-                for chunk in bucketed.band(b).entries.chunks(POINTS_PER_CHECK) {
+        let summaries = pieces
+            .par_iter()
+            .zip(key_parts)
+            .map(|(piece, keys)| {
+                let (key, bin_code) = (key, bin_code);
+                let mut sums = vec![Summary::default(); cells];
+                let mut at = 0;
+                for r in piece.iter().cloned().flat_map(checked_pieces) {
                     if cancel.is_stopped() {
-                        return;
+                        break;
                     }
-                    for e in chunk {
-                        let z = e.p[2];
-                        let s = &mut sums[(e.cell() - c0) as usize];
+                    let pts = &xyz[r];
+                    for (slot, p) in keys[at..at + pts.len()].iter_mut().zip(pts) {
+                        let Some(c) = key(p) else {
+                            *slot = NO_KEY;
+                            continue;
+                        };
+                        let s = &mut sums[c];
                         s.n += 1;
-                        s.zmin = s.zmin.min(z);
-                        s.zmax = s.zmax.max(z);
-                        s.slice += u32::from(z >= slice[0] && z < slice[1]);
-                        let b = (e.key >> CELL_BITS) as u8;
+                        s.zmin = s.zmin.min(p[2]);
+                        s.zmax = s.zmax.max(p[2]);
+                        s.slice += u32::from(p[2] >= slice[0] && p[2] < slice[1]);
+                        let b = bin_code(p[2]);
                         if b != super::cell::NO_BIN {
                             s.mask |= 1 << b;
                         }
+                        // The bin rides along for the scatter.
+                        *slot = c as u32 | u32::from(b) << CELL_BITS;
                     }
+                    at += pts.len();
                 }
-            });
+                sums
+            })
+            .reduce_with(|mut a, b| {
+                a.iter_mut().zip(&b).for_each(|(x, y)| x.merge(y));
+                a
+            })
+            .unwrap_or_else(|| vec![Summary::default(); cells]);
         cancel.check()?;
 
         // What each core cell's block summary says, a row per task, then which cells' points
@@ -358,61 +308,63 @@ impl Grid {
         let mut slots = vec![0u16; if carry == Carry::Slots { n } else { 0 }];
         let mut times = vec![0f64; if carry == Carry::Times { n } else { 0 }];
 
-        // The scatter, a band per task: each band owns a contiguous part of the output (its
-        // cells are consecutive), small enough to stay in the core's cache, and passes over
-        // its own points only, in cloud order.
+        // The scatter, in bands of rows, one per thread: each band owns a contiguous part of
+        // the output, passes over the recorded keys and keeps its own points, in cloud order.
+        let bands = band_rows(&start, width, range.j.len(), parts);
         let mut outs = Vec::with_capacity(bands.len());
         {
             let (mut p_rest, mut b_rest, mut s_rest, mut t_rest) =
                 (&mut pts[..], &mut bins[..], &mut slots[..], &mut times[..]);
-            for b in 0..bands.len() {
-                let cs = bands.cells(b);
-                let len = (start[cs.end] - start[cs.start]) as usize;
+            for rows in &bands {
+                let (c0, c1) = (rows.start * width, rows.end * width);
+                let len = (start[c1] - start[c0]) as usize;
                 let (p, pr) = p_rest.split_at_mut(len);
                 let (b, br) = b_rest.split_at_mut(len);
                 let (s, sr) = s_rest.split_at_mut(if s_rest.is_empty() { 0 } else { len });
                 let (t, tr) = t_rest.split_at_mut(if t_rest.is_empty() { 0 } else { len });
                 (p_rest, b_rest, s_rest, t_rest) = (pr, br, sr, tr);
-                outs.push((p, b, s, t));
+                outs.push((c0..c1, p, b, s, t));
             }
         }
-        let needed = &needed;
-        outs.into_par_iter()
-            .enumerate()
-            .for_each(|(band, (p, b, s, t))| {
-                let cs = bands.cells(band);
-                let base = start[cs.start];
-                // Where each cell's next point goes in the band's output, or `SKIP` for a
-                // cell whose points no neighbourhood reads: one lookup a point says both.
-                let mut next: Vec<u32> = cs
-                    .clone()
-                    .map(|c| if needed[c] { start[c] - base } else { SKIP })
-                    .collect();
-                let c0 = cs.start as u32;
-                let from = bucketed.band(band);
-                for (n, chunk) in from.entries.chunks(POINTS_PER_CHECK).enumerate() {
-                    if cancel.is_stopped() {
-                        return;
+        let (keys, needed) = (&keys, &needed);
+        outs.into_par_iter().for_each(|(band, p, b, s, t)| {
+            let base = start[band.start];
+            // Where each cell's next point goes in the band's output, or `SKIP` for a cell
+            // whose points no neighbourhood reads: one lookup a point says both.
+            let mut next: Vec<u32> = band
+                .clone()
+                .map(|c| if needed[c] { start[c] - base } else { SKIP })
+                .collect();
+            let (c0, width) = (band.start as u32, band.len() as u32);
+            let mut at = 0;
+            for r in spans.iter().cloned().flat_map(checked_pieces) {
+                if cancel.is_stopped() {
+                    return;
+                }
+                for (k, q) in xyz[r.clone()].iter().enumerate() {
+                    let key = keys[at];
+                    at += 1;
+                    // `NO_KEY`'s cell lies past every held cell, so outside every band.
+                    let c = (key & CELL_MASK).wrapping_sub(c0);
+                    if c >= width {
+                        continue;
                     }
-                    let k0 = n * POINTS_PER_CHECK;
-                    for (k, e) in chunk.iter().enumerate() {
-                        let slot = &mut next[(e.cell() - c0) as usize];
-                        if *slot == SKIP {
-                            continue;
-                        }
-                        let dst = *slot as usize;
-                        *slot += 1;
-                        p[dst] = e.p;
-                        b[dst] = (e.key >> CELL_BITS) as u8;
-                        match carry {
-                            Carry::Slots => s[dst] = from.slots[k0 + k],
-                            Carry::Times => t[dst] = from.times[k0 + k],
-                            Carry::Nothing => {}
-                        }
+                    let slot = &mut next[c as usize];
+                    if *slot == SKIP {
+                        continue;
+                    }
+                    let dst = *slot as usize;
+                    *slot += 1;
+                    p[dst] = *q;
+                    b[dst] = (key >> CELL_BITS) as u8;
+                    match carry {
+                        Carry::Slots => s[dst] = points.scan[r.start + k],
+                        Carry::Times => t[dst] = points.time[r.start + k],
+                        Carry::Nothing => {}
                     }
                 }
-            });
-        drop(bucketed);
+            }
+        });
         cancel.check()?;
         Ok(Grid {
             frame,
@@ -481,6 +433,29 @@ fn split_spans(spans: &[Range<usize>], len: usize) -> Vec<Vec<Range<usize>>> {
         }
     }
     pieces
+}
+
+/// Splits `rows` rows of `width` cells into at most `parts` contiguous bands of about equal
+/// point counts (`start` holds the cells' prefix sums).
+fn band_rows(start: &[u32], width: usize, rows: usize, parts: usize) -> Vec<Range<usize>> {
+    let total = *start.last().unwrap_or(&0) as u64;
+    let mut bands = Vec::with_capacity(parts);
+    let mut from = 0;
+    for k in 1..parts {
+        let goal = total * k as u64 / parts as u64;
+        let mut to = from;
+        while to < rows && (start[(to + 1) * width] as u64) <= goal {
+            to += 1;
+        }
+        if to > from {
+            bands.push(from..to);
+            from = to;
+        }
+    }
+    if from < rows || bands.is_empty() {
+        bands.push(from..rows);
+    }
+    bands
 }
 
 #[cfg(test)]
@@ -629,115 +604,6 @@ mod tests {
         assert!(kept > 0 && skipped > 0, "{kept} {skipped}");
     }
 
-    /// The summaries a plain pass over the points finds, cell by cell.
-    fn plain_summaries(
-        xyz: &[[f32; 3]],
-        spans: &[Range<usize>],
-        frame: &GridFrame,
-    ) -> Vec<Summary> {
-        let s = story();
-        let mut sums = vec![Summary::default(); frame.nx * frame.ny];
-        for p in spans.iter().cloned().flatten().map(|k| &xyz[k]) {
-            if !in_story(&s, p[2]) {
-                continue;
-            }
-            let (i, j) = frame.cell_of(p);
-            let c = &mut sums[j * frame.nx + i];
-            c.n += 1;
-            c.zmin = c.zmin.min(p[2]);
-            c.zmax = c.zmax.max(p[2]);
-            c.mask |= 1 << (p[2] > 0.75) as u8;
-            c.slice += u32::from(p[2] >= 0.5 && p[2] < 1.0);
-        }
-        sums
-    }
-
-    #[test]
-    fn bands_of_any_size_count_and_sort_as_one_pass_over_the_grid() {
-        // Points on cell borders (multiples of 5 cm, in x and y), on the far edges, at the
-        // story's bottom and top (the top is outside), and spread over several rows.
-        let mut xyz: Vec<[f32; 3]> = Vec::new();
-        for k in 0..=12u16 {
-            let v = f32::from(k) * 0.05;
-            xyz.push([v, 0.0, 0.0]);
-            xyz.push([0.0, v, 2.0]);
-            xyz.push([v, v, 0.8]);
-            xyz.push([0.6 - v, v, 0.5]);
-        }
-        xyz.extend((0..500u32).map(|k| {
-            let h = k.wrapping_mul(2_654_435_761);
-            [
-                (h % 601) as f32 * 0.001,
-                ((h >> 12) % 601) as f32 * 0.001,
-                (k % 23) as f32 * 0.1,
-            ]
-        }));
-        let s = story();
-        let frame = StoryBounds::measure(&xyz, &s).frame(&s, 0.05).unwrap();
-        assert_eq!((frame.nx, frame.ny), (13, 13));
-        let scan: Vec<u16> = (0..xyz.len() as u16).collect();
-        let points = Points {
-            xyz: &xyz,
-            scan: &scan,
-            time: &[],
-        };
-        let n = xyz.len();
-        let build = |spans: &[Range<usize>], band_cells: usize| {
-            Grid::build_in_bands(
-                points,
-                Some(spans),
-                &s,
-                frame,
-                &frame.all(),
-                Carry::Slots,
-                |z| (z > 0.75) as u8,
-                |_| Ok(()),
-                [0.5, 1.0],
-                &Cancel::never(),
-                band_cells,
-            )
-            .unwrap()
-        };
-        let spans = [0..n / 3, n / 2..n];
-        let want = plain_summaries(&xyz, &spans, &frame);
-        let whole = build(&spans, usize::MAX);
-        // A cell's width, a row, a row and a bit, several rows, all in one band.
-        for band_cells in [1, 5, 13, 14, 40, 169, 1 << 20] {
-            let g = build(&spans, band_cells);
-            for (c, (got, want)) in g.summaries.iter().zip(&want).enumerate() {
-                assert_eq!(
-                    (got.n, got.mask, got.slice),
-                    (want.n, want.mask, want.slice),
-                    "cell {c}, bands of {band_cells}"
-                );
-                if want.n > 0 {
-                    assert_eq!((got.zmin, got.zmax), (want.zmin, want.zmax), "cell {c}");
-                }
-            }
-            assert_eq!(g.start, whole.start, "bands of {band_cells}");
-            assert_eq!(g.pts, whole.pts);
-            assert_eq!(g.bins, whole.bins);
-            assert_eq!(g.slots, whole.slots);
-            assert_eq!(g.density, whole.density);
-        }
-        // Every point of the spans in the story is counted once.
-        let counted: u32 = whole.summaries.iter().map(|s| s.n).sum();
-        let in_spans = spans
-            .iter()
-            .cloned()
-            .flatten()
-            .filter(|&k| in_story(&s, xyz[k][2]))
-            .count();
-        assert_eq!(counted as usize, in_spans);
-        // No points at all: empty cells, nothing kept.
-        for band_cells in [1, 40] {
-            let g = build(&[], band_cells);
-            assert!(g.summaries.iter().all(|s| s.n == 0 && s.mask == 0));
-            assert!(g.pts.is_empty() && g.screens.iter().all(|s| *s == Screen::Empty));
-            assert_eq!(g.start, vec![0; frame.nx * frame.ny + 1]);
-        }
-    }
-
     #[test]
     fn blocks_skip_what_a_story_cannot_hold() {
         let mut xyz = vec![[0.0f32, 0.0, 1.0]; Blocks::SIZE * 3];
@@ -786,5 +652,15 @@ mod tests {
         let (bounds, _) = StoryBounds::measure_all(&xyz[..2 * n], &stories);
         assert_eq!((bounds[0].non_finite, bounds[1].non_finite), (0, 0));
         assert_eq!(bounds[0].n + bounds[1].n, 2 * n);
+    }
+
+    #[test]
+    fn bands_split_rows_by_points_and_cover_them_all() {
+        // Four rows of two cells, with 1, 1, 5 and 1 points.
+        let start = [0, 1, 1, 1, 1, 6, 6, 7, 7];
+        assert_eq!(band_rows(&start, 2, 4, 2), vec![0..2, 2..4]);
+        assert_eq!(band_rows(&start, 2, 4, 1), vec![0..4]);
+        let empty = [0u32; 9];
+        assert_eq!(band_rows(&empty, 2, 4, 3), vec![0..4]);
     }
 }

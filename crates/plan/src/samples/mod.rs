@@ -6,7 +6,6 @@
 //! before any neighbourhood is gathered; the rest run the tests of `cell` in the paper's
 //! order. With scanner poses, `views` orients the normals and drops far samples.
 
-mod bands;
 mod bounds;
 mod cell;
 mod coverage;
