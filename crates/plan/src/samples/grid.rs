@@ -422,28 +422,31 @@ impl Grid {
             .collect()
     }
 
-    /// Where the points of the 3 × 3 block around `(i, j)` lie in `pts`: the rows in order,
-    /// in each its cells in order, and each cell's points in cloud order (its pieces in
-    /// order). With one piece a row's cells are one run.
-    pub fn block_runs(&self, i: usize, j: usize) -> impl Iterator<Item = Range<usize>> + '_ {
+    /// Where the points of the 3 × 3 block around `(i, j)` lie in `pts`, into `runs`: the
+    /// rows in order, in each its cells in order, and each cell's points in cloud order (its
+    /// pieces in order). With one piece a row's cells are one run.
+    pub fn block_runs(&self, i: usize, j: usize, runs: &mut Vec<Range<usize>>) {
         let (xs, ys) = self.range.block_around(i, j);
         let cells = self.range.cells();
-        let one = self.pieces == 1;
-        ys.flat_map(move |b| {
+        let run = |from: usize, to: usize| self.start[from] as usize..self.start[to] as usize;
+        runs.clear();
+        for b in ys {
             let (first, last) = (self.id(xs.start, b), self.id(xs.end - 1, b));
-            // One piece: the row's cells at once; else each cell, piece by piece.
-            let runs = if one {
-                first..first + 1
-            } else {
-                first..last + 1
-            };
-            runs.flat_map(move |c| {
-                let end = if one { last + 1 } else { c + 1 };
-                (0..self.pieces).map(move |p| {
-                    self.start[p * cells + c] as usize..self.start[p * cells + end] as usize
-                })
-            })
-        })
+            if self.pieces == 1 {
+                runs.push(run(first, last + 1));
+                continue;
+            }
+            for c in first..=last {
+                runs.extend((0..self.pieces).map(|p| run(p * cells + c, p * cells + c + 1)));
+            }
+        }
+    }
+
+    /// The points of the 3 × 3 block around `(i, j)`, in the order of [`Self::block_runs`].
+    pub fn block_points(&self, i: usize, j: usize) -> impl Iterator<Item = usize> {
+        let mut runs = Vec::new();
+        self.block_runs(i, j, &mut runs);
+        runs.into_iter().flatten()
     }
 
     /// The held cells of the 3 × 3 block around `(i, j)`.
@@ -542,7 +545,7 @@ mod tests {
         assert_eq!(g.block(1, 0).count(), 6);
         // The block's runs hold its cells' points, row by row.
         for (i, j) in [(0, 0), (1, 0), (2, 1)] {
-            let runs: Vec<usize> = g.block_runs(i, j).flatten().collect();
+            let runs: Vec<usize> = g.block_points(i, j).collect();
             let cells: Vec<usize> = g.block(i, j).flat_map(|(a, b)| g.points(a, b)).collect();
             assert_eq!(runs, cells);
         }
@@ -637,8 +640,7 @@ mod tests {
         (0..frame.ny)
             .flat_map(|j| (0..frame.nx).map(move |i| (i, j)))
             .map(|(i, j)| {
-                g.block_runs(i, j)
-                    .flatten()
+                g.block_points(i, j)
                     .map(|k| (g.pts[k], g.bins[k], g.slots[k]))
                     .collect()
             })
