@@ -1,8 +1,10 @@
 //! The d_s grid over one story. The story's points are counting-sorted by cell into a copy of
-//! their own, so that a cell's points are one contiguous run and a neighbourhood is read
-//! sequentially, not gathered from all over the cloud. Within a cell the points keep the
-//! cloud's order, which makes every sum over a neighbourhood the same however the grid was
-//! built (whole, or tile by tile in the streaming mode).
+//! their own, so that a cell's points are a few contiguous runs and a neighbourhood is read
+//! sequentially, not gathered from all over the cloud. The points are cut into consecutive
+//! pieces, one a thread; each piece sorts its own points into its own part of the copy, so a
+//! cell's points are one run per piece, and read piece after piece they are in the cloud's
+//! order. That makes every sum over a neighbourhood the same however many threads built the
+//! grid, and whether it was built whole or tile by tile (the streaming mode).
 //!
 //! Where the grid lies ([`GridFrame`], in `bounds.rs`) is fixed by the horizontal bounds of all
 //! the story's points ([`StoryBounds`]); a [`Grid`] may hold only a range of its cells.
@@ -72,9 +74,12 @@ pub(super) struct Grid {
     pub frame: GridFrame,
     /// The cells held.
     pub range: CellRange,
-    /// `pts[start[c]..start[c + 1]]` are the kept points of held cell `c` (row-major in
-    /// `range`); empty for cells whose points no neighbourhood needs.
+    /// `pts[start[p * cells + c]..start[p * cells + c + 1]]` are the kept points of held cell
+    /// `c` (row-major in `range`, `cells` of them) from piece `p`; empty for cells whose
+    /// points no neighbourhood needs. Piece after piece, a cell's points are in cloud order.
     pub start: Vec<u32>,
+    /// The pieces the points were sorted in (at least one).
+    pub pieces: usize,
     pub pts: Vec<[f32; 3]>,
     /// Alongside `pts`: each point's height bin code, and when carried its scan slot or time.
     pub bins: Vec<u8>,
@@ -195,18 +200,18 @@ impl Grid {
         let parts = rayon::current_num_threads().max(1);
         let total: usize = spans.iter().map(|r| r.len()).sum();
         let pieces = split_spans(&spans, total.div_ceil(parts).max(1));
+        let piece_len = |piece: &Vec<Range<usize>>| piece.iter().map(|r| r.len()).sum::<usize>();
         let mut keys = vec![0u32; total];
         let mut key_parts = Vec::with_capacity(pieces.len());
         {
             let mut rest = &mut keys[..];
             for piece in &pieces {
-                let len = piece.iter().map(|r| r.len()).sum();
-                let (k, r) = rest.split_at_mut(len);
+                let (k, r) = rest.split_at_mut(piece_len(piece));
                 key_parts.push(k);
                 rest = r;
             }
         }
-        let summaries = pieces
+        let piece_sums = pieces
             .par_iter()
             .zip(key_parts)
             .map(|(piece, keys)| {
@@ -239,12 +244,20 @@ impl Grid {
                 }
                 sums
             })
-            .reduce_with(|mut a, b| {
+            .collect::<Vec<_>>();
+        cancel.check()?;
+        // Each piece's counts place its points; the merged summaries screen the cells.
+        let counts: Vec<Vec<u32>> = piece_sums
+            .iter()
+            .map(|sums| sums.iter().map(|s| s.n).collect())
+            .collect();
+        let summaries = piece_sums
+            .into_iter()
+            .reduce(|mut a, b| {
                 a.iter_mut().zip(&b).for_each(|(x, y)| x.merge(y));
                 a
             })
             .unwrap_or_else(|| vec![Summary::default(); cells]);
-        cancel.check()?;
 
         // What each core cell's block summary says, a row per task, then which cells' points
         // a candidate's neighbourhood will read.
@@ -298,78 +311,89 @@ impl Grid {
                         .any(|b| xs.clone().any(|a| screens[id(a, b)] == Screen::Candidate));
                 }
             });
-        let mut start = vec![0u32; cells + 1];
-        for c in 0..cells {
-            start[c + 1] = start[c] + if needed[c] { summaries[c].n } else { 0 };
+        // Piece by piece, the needed cells' points in row-major order of their cells.
+        let np = pieces.len();
+        let mut start = vec![0u32; np * cells + 1];
+        for (p, counts) in counts.iter().enumerate() {
+            for c in 0..cells {
+                let k = p * cells + c;
+                start[k + 1] = start[k] + if needed[c] { counts[c] } else { 0 };
+            }
         }
-        let n = start[cells] as usize;
+        drop(counts);
+        let n = start[np * cells] as usize;
         let mut pts = vec![[0f32; 3]; n];
         let mut bins = vec![0u8; n];
         let mut slots = vec![0u16; if carry == Carry::Slots { n } else { 0 }];
         let mut times = vec![0f64; if carry == Carry::Times { n } else { 0 }];
 
-        // The scatter, in bands of rows, one per thread: each band owns a contiguous part of
-        // the output, passes over the recorded keys and keeps its own points, in cloud order.
-        let bands = band_rows(&start, width, range.j.len(), parts);
-        let mut outs = Vec::with_capacity(bands.len());
+        // The scatter, a piece per thread: each piece passes over its own points and keys and
+        // writes them, in cloud order, to its own contiguous part of the output.
+        let mut outs = Vec::with_capacity(np);
         {
             let (mut p_rest, mut b_rest, mut s_rest, mut t_rest) =
                 (&mut pts[..], &mut bins[..], &mut slots[..], &mut times[..]);
-            for rows in &bands {
-                let (c0, c1) = (rows.start * width, rows.end * width);
-                let len = (start[c1] - start[c0]) as usize;
-                let (p, pr) = p_rest.split_at_mut(len);
+            let mut key_rest = &keys[..];
+            for (p, piece) in pieces.iter().enumerate() {
+                let len = (start[(p + 1) * cells] - start[p * cells]) as usize;
+                let (pp, pr) = p_rest.split_at_mut(len);
                 let (b, br) = b_rest.split_at_mut(len);
                 let (s, sr) = s_rest.split_at_mut(if s_rest.is_empty() { 0 } else { len });
                 let (t, tr) = t_rest.split_at_mut(if t_rest.is_empty() { 0 } else { len });
                 (p_rest, b_rest, s_rest, t_rest) = (pr, br, sr, tr);
-                outs.push((c0..c1, p, b, s, t));
+                let (k, kr) = key_rest.split_at(piece_len(piece));
+                key_rest = kr;
+                outs.push((p, piece, k, pp, b, s, t));
             }
         }
-        let (keys, needed) = (&keys, &needed);
-        outs.into_par_iter().for_each(|(band, p, b, s, t)| {
-            let base = start[band.start];
-            // Where each cell's next point goes in the band's output, or `SKIP` for a cell
-            // whose points no neighbourhood reads: one lookup a point says both.
-            let mut next: Vec<u32> = band
-                .clone()
-                .map(|c| if needed[c] { start[c] - base } else { SKIP })
-                .collect();
-            let (c0, width) = (band.start as u32, band.len() as u32);
-            let mut at = 0;
-            for r in spans.iter().cloned().flat_map(checked_pieces) {
-                if cancel.is_stopped() {
-                    return;
+        let needed = &needed;
+        outs.into_par_iter()
+            .for_each(|(piece, spans, keys, p, b, s, t)| {
+                let base = start[piece * cells];
+                // Where each cell's next point goes in the piece's output, or `SKIP` for a cell
+                // whose points no neighbourhood reads: one lookup a point says both.
+                let mut next: Vec<u32> = (0..cells)
+                    .map(|c| {
+                        if needed[c] {
+                            start[piece * cells + c] - base
+                        } else {
+                            SKIP
+                        }
+                    })
+                    .collect();
+                let mut at = 0;
+                for r in spans.iter().cloned().flat_map(checked_pieces) {
+                    if cancel.is_stopped() {
+                        return;
+                    }
+                    for (k, q) in xyz[r.clone()].iter().enumerate() {
+                        let key = keys[at + k];
+                        // `NO_KEY`'s cell lies past every held cell.
+                        let Some(slot) = next.get_mut((key & CELL_MASK) as usize) else {
+                            continue;
+                        };
+                        if *slot == SKIP {
+                            continue;
+                        }
+                        let dst = *slot as usize;
+                        *slot += 1;
+                        p[dst] = *q;
+                        b[dst] = (key >> CELL_BITS) as u8;
+                        match carry {
+                            Carry::Slots => s[dst] = points.scan[r.start + k],
+                            Carry::Times => t[dst] = points.time[r.start + k],
+                            Carry::Nothing => {}
+                        }
+                    }
+                    at += r.len();
                 }
-                for (k, q) in xyz[r.clone()].iter().enumerate() {
-                    let key = keys[at];
-                    at += 1;
-                    // `NO_KEY`'s cell lies past every held cell, so outside every band.
-                    let c = (key & CELL_MASK).wrapping_sub(c0);
-                    if c >= width {
-                        continue;
-                    }
-                    let slot = &mut next[c as usize];
-                    if *slot == SKIP {
-                        continue;
-                    }
-                    let dst = *slot as usize;
-                    *slot += 1;
-                    p[dst] = *q;
-                    b[dst] = (key >> CELL_BITS) as u8;
-                    match carry {
-                        Carry::Slots => s[dst] = points.scan[r.start + k],
-                        Carry::Times => t[dst] = points.time[r.start + k],
-                        Carry::Nothing => {}
-                    }
-                }
-            }
-        });
+            });
         cancel.check()?;
         Ok(Grid {
             frame,
             range,
             start,
+            pieces: np,
             pts,
             bins,
             slots,
@@ -387,21 +411,42 @@ impl Grid {
         (j - self.range.j.start) * self.range.width() + (i - self.range.i.start)
     }
 
-    /// Where the points of held cell `(i, j)` lie in `pts`.
+    /// Where the points of held cell `(i, j)` lie in `pts`, in cloud order.
     #[cfg(test)]
-    pub fn points(&self, i: usize, j: usize) -> Range<usize> {
-        let c = self.id(i, j);
-        self.start[c] as usize..self.start[c + 1] as usize
+    pub fn points(&self, i: usize, j: usize) -> Vec<usize> {
+        let (c, cells) = (self.id(i, j), self.range.cells());
+        (0..self.pieces)
+            .flat_map(|p| {
+                self.start[p * cells + c] as usize..self.start[p * cells + c + 1] as usize
+            })
+            .collect()
     }
 
-    /// Where the points of the 3 × 3 block around `(i, j)` lie in `pts`: one run per row,
-    /// the rows in order (a row's cells are consecutive).
-    pub fn block_runs(&self, i: usize, j: usize) -> impl Iterator<Item = Range<usize>> + '_ {
+    /// Where the points of the 3 × 3 block around `(i, j)` lie in `pts`, into `runs`: the
+    /// rows in order, in each its cells in order, and each cell's points in cloud order (its
+    /// pieces in order). With one piece a row's cells are one run.
+    pub fn block_runs(&self, i: usize, j: usize, runs: &mut Vec<Range<usize>>) {
         let (xs, ys) = self.range.block_around(i, j);
-        ys.map(move |b| {
-            self.start[self.id(xs.start, b)] as usize
-                ..self.start[self.id(xs.end - 1, b) + 1] as usize
-        })
+        let cells = self.range.cells();
+        let run = |from: usize, to: usize| self.start[from] as usize..self.start[to] as usize;
+        runs.clear();
+        for b in ys {
+            let (first, last) = (self.id(xs.start, b), self.id(xs.end - 1, b));
+            if self.pieces == 1 {
+                runs.push(run(first, last + 1));
+                continue;
+            }
+            for c in first..=last {
+                runs.extend((0..self.pieces).map(|p| run(p * cells + c, p * cells + c + 1)));
+            }
+        }
+    }
+
+    /// The points of the 3 × 3 block around `(i, j)`, in the order of [`Self::block_runs`].
+    pub fn block_points(&self, i: usize, j: usize) -> impl Iterator<Item = usize> {
+        let mut runs = Vec::new();
+        self.block_runs(i, j, &mut runs);
+        runs.into_iter().flatten()
     }
 
     /// The held cells of the 3 × 3 block around `(i, j)`.
@@ -432,30 +477,11 @@ fn split_spans(spans: &[Range<usize>], len: usize) -> Vec<Vec<Range<usize>>> {
             }
         }
     }
+    // No empty piece after the last point (each piece has runs in every cell's list).
+    if pieces.len() > 1 && pieces.last().is_some_and(|p| p.is_empty()) {
+        pieces.pop();
+    }
     pieces
-}
-
-/// Splits `rows` rows of `width` cells into at most `parts` contiguous bands of about equal
-/// point counts (`start` holds the cells' prefix sums).
-fn band_rows(start: &[u32], width: usize, rows: usize, parts: usize) -> Vec<Range<usize>> {
-    let total = *start.last().unwrap_or(&0) as u64;
-    let mut bands = Vec::with_capacity(parts);
-    let mut from = 0;
-    for k in 1..parts {
-        let goal = total * k as u64 / parts as u64;
-        let mut to = from;
-        while to < rows && (start[(to + 1) * width] as u64) <= goal {
-            to += 1;
-        }
-        if to > from {
-            bands.push(from..to);
-            from = to;
-        }
-    }
-    if from < rows || bands.is_empty() {
-        bands.push(from..rows);
-    }
-    bands
 }
 
 #[cfg(test)]
@@ -504,17 +530,22 @@ mod tests {
         ];
         let g = grid(&xyz, None);
         assert_eq!((g.frame.nx, g.frame.ny), (3, 2));
-        let at = |i, j| g.points(i, j).map(|k| g.slots[k]).collect::<Vec<_>>();
+        let at = |i, j| {
+            g.points(i, j)
+                .iter()
+                .map(|&k| g.slots[k])
+                .collect::<Vec<_>>()
+        };
         assert_eq!(at(0, 0), vec![0, 4]);
         assert_eq!(at(2, 0), vec![1]);
         assert_eq!(at(0, 1), vec![2]);
         assert_eq!(g.pts.len(), 4);
-        assert_eq!(g.pts[g.points(2, 0).start], [0.12, 0.01, 1.0]);
+        assert_eq!(g.pts[g.points(2, 0)[0]], [0.12, 0.01, 1.0]);
         assert_eq!(g.block(0, 0).count(), 4);
         assert_eq!(g.block(1, 0).count(), 6);
         // The block's runs hold its cells' points, row by row.
         for (i, j) in [(0, 0), (1, 0), (2, 1)] {
-            let runs: Vec<usize> = g.block_runs(i, j).flatten().collect();
+            let runs: Vec<usize> = g.block_points(i, j).collect();
             let cells: Vec<usize> = g.block(i, j).flat_map(|(a, b)| g.points(a, b)).collect();
             assert_eq!(runs, cells);
         }
@@ -525,7 +556,7 @@ mod tests {
         // A range holds only its cells, with the same contents.
         let part = grid(&xyz, Some(CellRange { i: 2..3, j: 0..2 }));
         assert_eq!(part.pts, vec![[0.12, 0.01, 1.0]]);
-        assert_eq!(part.points(2, 0), 0..1);
+        assert_eq!(part.points(2, 0), vec![0]);
         // The range holds its cells and a ring of neighbours around them.
         assert_eq!(part.range, CellRange { i: 1..3, j: 0..2 });
         assert_eq!(part.block(2, 0).count(), 4);
@@ -588,7 +619,7 @@ mod tests {
                     })
                     .map(|k| k as u16)
                     .collect();
-                let got: Vec<u16> = g.points(i, j).map(|k| g.slots[k]).collect();
+                let got: Vec<u16> = g.points(i, j).iter().map(|&k| g.slots[k]).collect();
                 assert_eq!(got, want, "cell ({i}, {j})");
                 for k in g.points(i, j) {
                     assert_eq!(g.pts[k], xyz[g.slots[k] as usize]);
@@ -602,6 +633,124 @@ mod tests {
             }
         }
         assert!(kept > 0 && skipped > 0, "{kept} {skipped}");
+    }
+
+    /// What each core cell's neighbourhood reads from `g`, in order: point, bin and slot.
+    fn reads(g: &Grid, frame: &GridFrame) -> Vec<Vec<([f32; 3], u8, u16)>> {
+        (0..frame.ny)
+            .flat_map(|j| (0..frame.nx).map(move |i| (i, j)))
+            .map(|(i, j)| {
+                g.block_points(i, j)
+                    .map(|k| (g.pts[k], g.bins[k], g.slots[k]))
+                    .collect()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn any_number_of_pieces_reads_the_same_points_in_the_same_order() {
+        // Points on cell borders (multiples of 5 cm), on the far edges, at the story's bottom
+        // and top (the top is outside it), and scattered over every row.
+        let mut xyz: Vec<[f32; 3]> = Vec::new();
+        for k in 0..=12u16 {
+            let v = f32::from(k) * 0.05;
+            xyz.push([v, 0.0, 0.0]);
+            xyz.push([0.0, v, 2.0]);
+            xyz.push([v, v, 0.8]);
+            xyz.push([0.6 - v, v, 0.5]);
+        }
+        xyz.extend((0..3000u32).map(|k| {
+            let h = k.wrapping_mul(2_654_435_761);
+            let (x, y) = ((h % 601) as f32 * 0.001, ((h >> 12) % 601) as f32 * 0.001);
+            [x, y, (k % 23) as f32 * 0.1]
+        }));
+        let s = story();
+        let frame = StoryBounds::measure(&xyz, &s).frame(&s, 0.05).unwrap();
+        assert_eq!((frame.nx, frame.ny), (13, 13));
+        let scan: Vec<u16> = (0..xyz.len() as u16).collect();
+        let n = xyz.len();
+        let build = |threads: usize, spans: &[Range<usize>]| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let points = Points {
+                    xyz: &xyz,
+                    scan: &scan,
+                    time: &[],
+                };
+                Grid::build(
+                    points,
+                    Some(spans),
+                    &s,
+                    frame,
+                    &frame.all(),
+                    Carry::Slots,
+                    |z| (z > 0.75) as u8,
+                    |b| {
+                        if b.n >= 30 {
+                            Ok(())
+                        } else {
+                            Err(Reject::TooFew)
+                        }
+                    },
+                    [0.5, 1.0],
+                    &Cancel::never(),
+                )
+                .unwrap()
+            })
+        };
+        let spans = [0..n / 3, n / 2..n];
+        let one = build(1, &spans);
+        assert_eq!(one.pieces, 1);
+        // The counts are a plain pass's: every point of the spans in the story, once.
+        let counted: u32 = one.summaries.iter().map(|s| s.n).sum();
+        let in_spans = spans.iter().cloned().flatten();
+        assert_eq!(
+            counted as usize,
+            in_spans.filter(|&k| in_story(&s, xyz[k][2])).count()
+        );
+        for cell in 0..frame.nx * frame.ny {
+            let (i, j) = (cell % frame.nx, cell / frame.nx);
+            let want: Vec<u16> = spans
+                .iter()
+                .cloned()
+                .flatten()
+                .filter(|&k| in_story(&s, xyz[k][2]) && frame.cell_of(&xyz[k]) == (i, j))
+                .map(|k| k as u16)
+                .collect();
+            assert_eq!(
+                one.summaries[cell].n as usize,
+                want.len(),
+                "cell ({i}, {j})"
+            );
+        }
+        let want = reads(&one, &frame);
+        assert!(want.iter().any(|r| !r.is_empty()) && one.pts.len() < in_spans_len(&spans));
+        for threads in [2, 3, 5] {
+            let g = build(threads, &spans);
+            assert_eq!(g.pieces, threads);
+            assert_eq!(reads(&g, &frame), want, "{threads} threads");
+            assert_eq!((&g.screens, &g.density), (&one.screens, &one.density));
+            for (a, b) in g.summaries.iter().zip(&one.summaries) {
+                assert_eq!(
+                    (a.n, a.zmin, a.zmax, a.mask, a.slice),
+                    (b.n, b.zmin, b.zmax, b.mask, b.slice)
+                );
+            }
+        }
+        // No points at all, at any thread count: empty cells, nothing kept.
+        for threads in [1, 2] {
+            let g = build(threads, &[]);
+            assert!(g.summaries.iter().all(|s| s.n == 0 && s.mask == 0));
+            assert!(g.pts.is_empty() && g.screens.iter().all(|s| *s == Screen::Empty));
+            assert!(reads(&g, &frame).iter().all(|r| r.is_empty()));
+        }
+    }
+
+    fn in_spans_len(spans: &[Range<usize>]) -> usize {
+        spans.iter().map(|r| r.len()).sum()
     }
 
     #[test]
@@ -621,6 +770,9 @@ mod tests {
         assert_eq!(blocks.spans(&upper), vec![Blocks::SIZE..2 * Blocks::SIZE]);
         let pieces = split_spans(&[0..5, 10..12], 3);
         assert_eq!(pieces, vec![vec![0..3], vec![3..5, 10..11], vec![11..12]]);
+        let pieces = split_spans(&[0..5, 10..11], 3);
+        assert_eq!(pieces, vec![vec![0..3], vec![3..5, 10..11]]);
+        assert_eq!(split_spans(&[], 3), vec![Vec::<Range<usize>>::new()]);
     }
 
     #[test]
@@ -652,15 +804,5 @@ mod tests {
         let (bounds, _) = StoryBounds::measure_all(&xyz[..2 * n], &stories);
         assert_eq!((bounds[0].non_finite, bounds[1].non_finite), (0, 0));
         assert_eq!(bounds[0].n + bounds[1].n, 2 * n);
-    }
-
-    #[test]
-    fn bands_split_rows_by_points_and_cover_them_all() {
-        // Four rows of two cells, with 1, 1, 5 and 1 points.
-        let start = [0, 1, 1, 1, 1, 6, 6, 7, 7];
-        assert_eq!(band_rows(&start, 2, 4, 2), vec![0..2, 2..4]);
-        assert_eq!(band_rows(&start, 2, 4, 1), vec![0..4]);
-        let empty = [0u32; 9];
-        assert_eq!(band_rows(&empty, 2, 4, 3), vec![0..4]);
     }
 }

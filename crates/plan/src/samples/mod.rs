@@ -561,6 +561,8 @@ fn prefilter(tests: &Tests, block: &Summary, min_points: usize) -> Result<(), Re
 /// their height bins, and what says who saw them.
 #[derive(Default)]
 struct Scratch {
+    /// Where the block's points lie in the grid.
+    runs: Vec<Range<usize>>,
     idx: Vec<u32>,
     pts: Vec<[f32; 3]>,
     bins: Vec<u8>,
@@ -632,7 +634,7 @@ impl Scan<'_> {
             self.min_points,
             &mut s.within,
             || {
-                let block: Vec<[f32; 3]> = g.block_runs(i, j).flatten().map(|k| g.pts[k]).collect();
+                let block: Vec<[f32; 3]> = g.block_points(i, j).map(|k| g.pts[k]).collect();
                 cell::pca_normal(&block)
             },
         ) {
@@ -683,19 +685,21 @@ impl Scan<'_> {
         let (cx, cy) = (lo[0] + cell / 2.0, lo[1] + cell / 2.0);
         let r2 = cell * cell;
         // About a third of the block's points lie outside the circle, in no pattern: the test
-        // decides where the next index goes rather than whether to branch.
+        // decides where the next index goes rather than whether to branch. Room for every
+        // point of the block is made once, however many runs it comes in.
+        g.block_runs(i, j, &mut s.runs);
         s.idx.clear();
-        for run in g.block_runs(i, j) {
-            let mut at = s.idx.len();
-            s.idx.resize(at + run.len(), 0);
+        s.idx.resize(s.runs.iter().map(|r| r.len()).sum(), 0);
+        let mut at = 0;
+        for run in s.runs.iter().cloned() {
             for k in run {
                 let p = g.pts[k];
                 let (dx, dy) = (p[0] as f64 - cx, p[1] as f64 - cy);
                 s.idx[at] = k as u32;
                 at += usize::from(dx * dx + dy * dy <= r2);
             }
-            s.idx.truncate(at);
         }
+        s.idx.truncate(at);
         s.pts.clear();
         s.pts.extend(s.idx.iter().map(|&k| g.pts[k as usize]));
         s.bins.clear();
