@@ -27,6 +27,9 @@ pub(crate) struct Faces {
     run: f64,
     /// Per vertex, the vertices it shares a face edge with.
     along: Vec<Vec<u32>>,
+    /// Per triangle, bit k set when the edge across from its vertex k is a face: a line of
+    /// sight crosses many edges and few faces, so each step tests a bit.
+    edges: Vec<u8>,
 }
 
 /// A line of sight crosses a face from behind when it meets it at this angle or more (sin 30°).
@@ -43,13 +46,15 @@ impl Faces {
         let mut faces = Faces {
             max_len: FACE_GAP * h,
             run: FACE_RUN * h,
-            along: vec![Vec::new(); mesh.vertices.len()],
+            along: Vec::new(),
+            edges: vec![0; mesh.triangles.len()],
         };
         let mut along = vec![Vec::new(); mesh.vertices.len()];
-        for tri in &mesh.triangles {
+        for (t, tri) in mesh.triangles.iter().enumerate() {
             for k in 0..3 {
-                let (u, w) = (tri[k], tri[(k + 1) % 3]);
+                let (u, w) = (tri[(k + 1) % 3], tri[(k + 2) % 3]);
                 if faces.normal(mesh, u, w).is_some() {
+                    faces.edges[t] |= 1 << k;
                     along[u as usize].push(w);
                     along[w as usize].push(u);
                 }
@@ -121,6 +126,9 @@ impl Faces {
             let Some(k) = (0..3).find(|&k| mesh.neighbors[t][k] == next) else {
                 continue;
             };
+            if self.edges[t] & (1 << k) == 0 {
+                continue;
+            }
             let tri = mesh.triangles[t];
             let (a, b) = (tri[(k + 1) % 3], tri[(k + 2) % 3]);
             let Some(n) = self.normal(mesh, a, b) else {
