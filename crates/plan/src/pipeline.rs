@@ -1,6 +1,6 @@
 //! The one place that lists the stages in order: cloud in, floor plan out.
 
-use std::cell::RefCell;
+use std::sync::Mutex;
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -263,7 +263,7 @@ pub fn plan(
     cancel.check()?;
     // Plain x, y, z: pseudo-viewpoints in the open space the samples enclose, per story.
     let plain = matches!(seen_from, Viewpoints::None) && params.viewpoints.open_space;
-    let open_space = RefCell::new(Vec::new());
+    let open_space = Mutex::new(Vec::new());
     let mut sample = |story: &Story, cancel: &Cancel| {
         let p = &params.samples;
         check_params(p, story)?;
@@ -286,7 +286,10 @@ pub fn plan(
                 &params.viewpoints,
                 p.max_range,
             );
-            open_space.borrow_mut().push(placed);
+            open_space
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .push(placed);
             cancel.check()?;
         }
         Ok(samples)
@@ -316,7 +319,7 @@ pub(crate) struct CloudSummary<'a> {
     /// The viewpoints planned with: given or estimated.
     pub viewpoints: ViewpointsReport,
     /// Plain x, y, z: the pseudo-viewpoints placed per story as the stories are sampled.
-    pub open_space: Option<&'a RefCell<Vec<OpenSpaceStory>>>,
+    pub open_space: Option<&'a Mutex<Vec<OpenSpaceStory>>>,
     /// The static scanners' positions, for the rooms they stand in.
     pub scanners: Vec<Scanner>,
     /// The height range of each block of the cloud's points, when measured.
@@ -363,9 +366,10 @@ pub(crate) fn plan_stories(
     progress: &mut dyn Progress,
     mut timings: Timings,
     start: Instant,
-    sample: &mut dyn FnMut(&Story, &Cancel) -> Result<WallSamples, SamplesError>,
+    sample: &mut SampleStory<'_>,
 ) -> Result<FloorPlan, PlanError> {
     let cloud = input.cloud;
+    let cancel = progress.cancel();
     let mut notes = Vec::new();
     let mut plans = Vec::new();
     let mut min_points_used = Vec::new();
@@ -374,22 +378,29 @@ pub(crate) fn plan_stories(
     let mut codes = Vec::new();
     // Open area in all, and the part viewpoint evidence forced inside.
     let mut evidence = (0.0, 0.0);
+    // The next story is sampled while this one runs its later stages: those run on one core
+    // for much of their time (the triangulation, fitting), and sampling fills both. Stories
+    // are still sampled one at a time and in order, so one story's grid is held at a time.
+    let mut ahead: Option<Sampled> = None;
     for (i, story) in stories.iter().enumerate() {
         let at = |k: f64| (i as f64 + k) / stories.len() as f64;
         progress.story(i + 1, stories.len());
         // What was assumed about the floor or ceiling goes with the story's plan or failure.
         let assumed = story.assumptions(cloud.origin[2]);
-        match plan_story(
-            story,
-            input,
-            params,
-            progress,
-            &mut timings,
-            at,
-            &mut *sample,
-        )
-        .map_err(PlanError::lift)
-        {
+        let sampled = match ahead.take() {
+            Some(sampled) => sampled,
+            None => {
+                progress.report(Stage::Samples, at(Stage::Samples.start()));
+                Sampled::of(&mut *sample, story, &cancel)
+            }
+        };
+        let next = stories.get(i + 1);
+        let (outcome, next) = rayon::join(
+            || plan_story(story, sampled, input, params, progress, &mut timings, at),
+            || next.map(|s| Sampled::of(&mut *sample, s, &cancel)),
+        );
+        ahead = next;
+        match outcome.map_err(PlanError::lift) {
             Ok(StoryOutcome {
                 plan: story_plan,
                 min_points_used: used,
@@ -439,7 +450,8 @@ pub(crate) fn plan_stories(
     progress.report(Stage::Write, 1.0);
     let mut viewpoints = input.viewpoints.clone();
     if let Some(placed) = input.open_space {
-        viewpoints.open_space = placed.take();
+        viewpoints.open_space =
+            std::mem::take(&mut *placed.lock().unwrap_or_else(|p| p.into_inner()));
         let any = viewpoints
             .open_space
             .iter()
@@ -481,14 +493,37 @@ fn shared_code(codes: &[&'static str]) -> &'static str {
 }
 
 /// One story through every stage after `stories`, stopping when `progress`'s cancel says so.
+/// Samples one story's walls: from the cloud held in memory, or from a streamed run's tiles.
+/// Called once a story, in story order, perhaps on another thread than the plan's.
+pub(crate) type SampleStory<'s> =
+    dyn FnMut(&Story, &Cancel) -> Result<WallSamples, SamplesError> + Send + 's;
+
+/// A story's samples, and how long taking them took.
+struct Sampled {
+    samples: Result<WallSamples, SamplesError>,
+    ms: f64,
+}
+
+impl Sampled {
+    fn of(sample: &mut SampleStory<'_>, story: &Story, cancel: &Cancel) -> Sampled {
+        let start = Instant::now();
+        let samples = sample(story, cancel);
+        Sampled {
+            samples,
+            ms: start.elapsed().as_secs_f64() * 1e3,
+        }
+    }
+}
+
+/// The stages after sampling, on one story's samples.
 fn plan_story(
     story: &Story,
+    sampled: Sampled,
     input: &CloudSummary<'_>,
     params: &Params,
     progress: &mut dyn Progress,
     timings: &mut Timings,
     at: impl Fn(f64) -> f64,
-    sample: &mut dyn FnMut(&Story, &Cancel) -> Result<WallSamples, SamplesError>,
 ) -> Result<StoryOutcome, PlanError> {
     let cancel = &progress.cancel();
     let grid = &Grid::world(input.cloud.origin);
@@ -496,8 +531,8 @@ fn plan_story(
         progress.report(stage, at(stage.start()));
         cancel.check()
     };
-    step(Stage::Samples)?;
-    let mut samples = timings.time(Stage::Samples, || sample(story, cancel))?;
+    timings.add(Stage::Samples.name(), sampled.ms);
+    let mut samples = sampled.samples?;
     step(Stage::Smoothing)?;
     timings.time(Stage::Smoothing, || {
         smooth_samples(
