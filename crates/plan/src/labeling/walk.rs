@@ -22,6 +22,37 @@ pub(crate) enum WalkEnd {
     Missed,
 }
 
+/// The vertex after each of a triangle's three, counter-clockwise.
+const NEXT: [usize; 3] = [1, 2, 0];
+
+/// [`EXIT`]'s entry where the line leaves by no edge.
+const NO_EXIT: usize = 3;
+
+/// For each pattern of sides (bit k set when vertex k is left of the line), the edge k→k+1
+/// the line leaves by: the first counter-clockwise edge going from right to left.
+const EXIT: [u8; 8] = {
+    let mut exit = [NO_EXIT as u8; 8];
+    let mut m = 0;
+    while m < 8 {
+        let mut k = 3;
+        while k > 0 {
+            k -= 1;
+            let (here, next) = ((m >> k) & 1, (m >> NEXT[k]) & 1);
+            if here == 0 && next == 1 {
+                exit[m] = k as u8;
+            }
+        }
+        m += 1;
+    }
+    exit
+};
+
+/// The sides of a triangle's vertices as bits, bit k from `left_of(tri[k])`.
+#[inline]
+fn sides(tri: [u32; 3], mut left_of: impl FnMut(u32) -> bool) -> u8 {
+    u8::from(left_of(tri[0])) | u8::from(left_of(tri[1])) << 1 | u8::from(left_of(tri[2])) << 2
+}
+
 /// True when `p` is left of, or on, the directed line a→b.
 #[inline]
 fn left(a: P2, b: P2, p: P2) -> bool {
@@ -51,17 +82,19 @@ pub(crate) fn walk(
     }
     let mut t = start;
     let mut t_in = t0;
-    // Side of each vertex of the current triangle; carried across the shared edge.
-    let mut side = mesh.triangles[t as usize].map(|v| left(a, b, mesh.vertices[v as usize]));
+    let mut tri = mesh.triangles[t as usize];
+    // Side of each vertex of the current triangle, a bit each (set: left); carried across the
+    // shared edge.
+    let mut side = sides(tri, |v| left(a, b, mesh.vertices[v as usize]));
     // A straight line crosses each triangle at most once; the cap only guards against a broken mesh.
     for _ in 0..=mesh.triangles.len() {
-        // The exit is the counter-clockwise edge i→i+1 going from right to left of the line.
-        let Some(i) = (0..3).find(|&i| !side[i] && side[(i + 1) % 3]) else {
+        let i = EXIT[side as usize] as usize;
+        if i == NO_EXIT {
             return WalkEnd::Missed;
-        };
-        let tri = mesh.triangles[t as usize];
-        let p = mesh.vertices[tri[i] as usize];
-        let q = mesh.vertices[tri[(i + 1) % 3] as usize];
+        }
+        let (pv, qv) = (tri[i], tri[NEXT[i]]);
+        let p = mesh.vertices[pv as usize];
+        let q = mesh.vertices[qv as usize];
         let pq = geom::sub(q, p);
         // p is strictly right of the line, so the edge is not parallel to it.
         let t_out = (geom::cross(geom::sub(p, a), pq) / geom::cross(d, pq)).max(t_in);
@@ -69,22 +102,22 @@ pub(crate) fn walk(
         if t_out >= t_end {
             return WalkEnd::Reached(t);
         }
-        let next = mesh.neighbors[t as usize][(i + 2) % 3];
+        let next = mesh.neighbors[t as usize][NEXT[NEXT[i]]];
         if next == NONE {
             return WalkEnd::Hull(t);
         }
-        // The next triangle shares p and q; find its third vertex.
+        // The next triangle shares p (right) and q (left); only its third vertex is new.
         let ntri = mesh.triangles[next as usize];
-        let new_side = ntri.map(|v| {
-            if v == tri[i] {
+        side = sides(ntri, |v| {
+            if v == pv {
                 false
-            } else if v == tri[(i + 1) % 3] {
+            } else if v == qv {
                 true
             } else {
                 left(a, b, mesh.vertices[v as usize])
             }
         });
-        side = new_side;
+        tri = ntri;
         t = next;
         t_in = t_out;
     }
@@ -197,10 +230,12 @@ fn closed_contains(mesh: &Mesh, t: u32, p: P2) -> bool {
 /// The line parameter where the perturbed line a→b leaves triangle `t`, if it crosses it.
 fn exit_param(mesh: &Mesh, t: u32, a: P2, b: P2) -> Option<f64> {
     let tri = mesh.triangles[t as usize];
-    let side = tri.map(|v| left(a, b, mesh.vertices[v as usize]));
-    let i = (0..3).find(|&i| !side[i] && side[(i + 1) % 3])?;
+    let i = EXIT[sides(tri, |v| left(a, b, mesh.vertices[v as usize])) as usize] as usize;
+    if i == NO_EXIT {
+        return None;
+    }
     let p = mesh.vertices[tri[i] as usize];
-    let pq = geom::sub(mesh.vertices[tri[(i + 1) % 3] as usize], p);
+    let pq = geom::sub(mesh.vertices[tri[NEXT[i]] as usize], p);
     Some(geom::cross(geom::sub(p, a), pq) / geom::cross(geom::sub(b, a), pq))
 }
 
@@ -268,6 +303,18 @@ mod tests {
             }
             assert!(contains(&m, *seen.last().unwrap(), b));
         }
+    }
+
+    #[test]
+    fn the_exit_table_names_the_first_edge_from_right_to_left() {
+        for m in 0..8usize {
+            let side = [m & 1 != 0, m & 2 != 0, m & 4 != 0];
+            let first = (0..3).find(|&i| !side[i] && side[(i + 1) % 3]);
+            assert_eq!(first.unwrap_or(NO_EXIT), EXIT[m] as usize, "sides {side:?}");
+        }
+        // All on one side: the line misses the triangle.
+        assert_eq!(EXIT[0] as usize, NO_EXIT);
+        assert_eq!(EXIT[7] as usize, NO_EXIT);
     }
 
     #[test]
