@@ -123,6 +123,10 @@ impl Faces {
         let mut out = Vec::new();
         for w in tris.windows(2) {
             let (t, next) = (w[0] as usize, w[1]);
+            // Most triangles have no face among their edges: settled without the edge's lookup.
+            if self.edges[t] == 0 {
+                continue;
+            }
             let Some(k) = (0..3).find(|&k| mesh.neighbors[t][k] == next) else {
                 continue;
             };
