@@ -48,16 +48,26 @@ fn floor_i64(x: f64) -> i64 {
 /// Points whose cube keys are found together, a coordinate at a time in 32-bit lanes.
 const LANES: usize = 8;
 
-/// [`cube_key`] of each of `LANES` points, when every coordinate is within ±2e9 m (so finite,
-/// and its floor fits an `i32`); `None` otherwise. Each coordinate's floor is its truncation,
-/// one less when that rounded up; both are exact in `f32` (a value from 2^24 on is whole).
+/// Coordinates below this in magnitude take the lanes' path: 2^22, where adding
+/// [`ROUNDER`] leaves a float whose units are whole numbers.
+const LANE_RANGE: f32 = 4_194_304.0;
+
+/// 1.5 × 2^23: adding it to a float under 2^22 in magnitude rounds it to a whole number,
+/// which the sum's low bits then hold.
+const ROUNDER: f32 = 12_582_912.0;
+
+/// [`cube_key`] of each of `LANES` points, when every coordinate is within ±2^22 m (so
+/// finite); `None` otherwise. Each coordinate is rounded to the nearest whole number by adding
+/// [`ROUNDER`] and reading the sum's bits, and its floor is that, one less when it rounded up:
+/// the same as `cube_key`'s, in steps the compiler can do several lanes at a time (a float's
+/// cast to an integer is not one: it checks for overflow).
 fn lane_keys(pts: &[[f32; 3]]) -> Option<[u64; LANES]> {
     let mut c = [[0f32; LANES]; 3];
     let mut small = true;
     for (k, p) in pts.iter().enumerate() {
         for a in 0..3 {
             c[a][k] = p[a];
-            small &= p[a].abs() < 2e9;
+            small &= p[a].abs() < LANE_RANGE;
         }
     }
     if !small {
@@ -66,8 +76,8 @@ fn lane_keys(pts: &[[f32; 3]]) -> Option<[u64; LANES]> {
     let floor = |v: &[f32; LANES]| -> [u64; LANES] {
         let mut out = [0u64; LANES];
         for (o, &v) in out.iter_mut().zip(v) {
-            let t = v as i32;
-            *o = ((t - i32::from(t as f32 > v)) as u32 & 0x1f_ffff) as u64;
+            let n = (v + ROUNDER).to_bits() as i32 - ROUNDER.to_bits() as i32;
+            *o = ((n - i32::from(n as f32 > v)) as u32 & 0x1f_ffff) as u64;
         }
         out
     };
@@ -330,6 +340,27 @@ mod tests {
         ];
         xs.extend((-3000..3000).map(|k| k as f64 * 0.0137));
         xs.extend((-100..100).map(|k| k as f32 * 0.1).map(|v| v as f64));
+        // Halves (rounding ties go to even), whole numbers and their neighbours, and the
+        // lanes' range.
+        for v in [
+            0.5f32,
+            1.5,
+            2.5,
+            3.5,
+            7.0,
+            4_194_303.5,
+            4_194_303.0,
+            4_194_304.0,
+        ] {
+            for w in [
+                v,
+                -v,
+                f32::from_bits(v.to_bits() + 1),
+                f32::from_bits(v.to_bits() - 1),
+            ] {
+                xs.extend([w as f64, -w as f64]);
+            }
+        }
         for &x in &xs {
             assert_eq!(floor_i64(x), x.floor() as i64, "{x}");
         }
@@ -344,7 +375,9 @@ mod tests {
                     }
                 }
                 None => assert!(
-                    pts.iter().flatten().any(|v| v.is_nan() || v.abs() >= 2e9),
+                    pts.iter()
+                        .flatten()
+                        .any(|v| v.is_nan() || v.abs() >= LANE_RANGE),
                     "{k}"
                 ),
             }
