@@ -13,7 +13,7 @@ mod chunks;
 pub use chunks::LasChunks;
 
 use super::assemble::{decode_pieces, settle, CloudBuilder, LocalSlots, Out};
-use super::pages::{zeroed, Mapped};
+use super::pages::Mapped;
 use super::{ReadError, ReadOptions};
 use crate::cloud::{to_local, PointCloud};
 
@@ -236,9 +236,9 @@ where
     let n = count as usize;
     let mut b = CloudBuilder::new(fname, 0, None, options.keep_time);
     let c = b.cloud_mut();
-    c.xyz = zeroed(n, [0.0; 3]);
-    c.scan = zeroed(n, 0);
-    c.time = zeroed(if layout.time.is_some() { n } else { 0 }, 0.0);
+    c.xyz = vec![[0.0; 3]; n];
+    c.scan = vec![0; n];
+    c.time = vec![0.0; if layout.time.is_some() { n } else { 0 }];
     let guard = BoundsGuard::new(&header);
     let (batch, size) = (batch.max(1) as usize, layout.size);
     let block = batch * group.max(1);

@@ -1,16 +1,16 @@
-//! The kernel's pages under the fixed-size record readers (binary PLY, uncompressed LAS): the
-//! file read through a read-only memory map, and the cloud's arrays on huge pages.
+//! The file under the fixed-size record readers (binary PLY, uncompressed LAS), read through a
+//! read-only memory map.
 //!
 //! A mapped file is decoded a block at a time straight from the page cache, with no copy into a
 //! buffer. Each block's pages leave the process once it is decoded, so a mapped read holds no
 //! more of the file than a buffered one, and the kernel is asked to read the next block ahead
 //! meanwhile. Sources that are not files are read through `pool::read_ahead` instead.
 //!
-//! The arrays are zeroed by the kernel page by page as the decoders first write them; on 2 MiB
-//! pages that is one fault where 4 KiB pages take 512.
+//! Huge pages for the cloud's arrays were tried and left out: on this project's virtual
+//! machines a fresh 2 MiB page is sometimes far slower to fault in than 512 small ones (the
+//! host backs it anew), so the read was faster at best and several times slower at worst.
 //!
-//! The crate's only `unsafe` code is here: the map, dropping a decoded block's pages, and the
-//! huge-page advice.
+//! The crate's only `unsafe` code is here: the map, and dropping a decoded block's pages.
 #![allow(unsafe_code)]
 
 use std::fs::File;
@@ -118,39 +118,6 @@ fn short() -> io::Error {
     io::Error::new(io::ErrorKind::UnexpectedEof, "failed to fill whole buffer")
 }
 
-/// Arrays of at least this many bytes are worth huge pages.
-const HUGE: usize = 4 << 20;
-
-/// `n` copies of `zero`, an all-zero value, not yet touched: the kernel zeroes each page as it
-/// is first written, on huge pages when the array is large and the system offers them.
-pub(crate) fn zeroed<T: Clone>(n: usize, zero: T) -> Vec<T> {
-    // All-zero values come from the allocator's zeroed memory, which large arrays get straight
-    // from the kernel, untouched.
-    let v = vec![zero; n];
-    let bytes = std::mem::size_of_val(v.as_slice());
-    if bytes >= HUGE {
-        advise_huge(v.as_ptr() as usize, bytes);
-    }
-    v
-}
-
-/// Asks for huge pages under the `bytes` bytes from address `start`, before they are touched.
-#[cfg(target_os = "linux")]
-fn advise_huge(start: usize, bytes: usize) {
-    const PAGE: usize = 4096;
-    let from = start.next_multiple_of(PAGE);
-    let to = (start + bytes) & !(PAGE - 1);
-    if to > from {
-        // SAFETY: the range lies inside one live allocation, rounded inwards to whole pages,
-        // and MADV_HUGEPAGE only changes the size of the pages backing it, never what it holds;
-        // a refusal (no huge pages here, another page size) leaves it as it was.
-        let _ = unsafe { libc::madvise(from as *mut libc::c_void, to - from, libc::MADV_HUGEPAGE) };
-    }
-}
-
-#[cfg(not(target_os = "linux"))]
-fn advise_huge(_: usize, _: usize) {}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -229,14 +196,5 @@ mod tests {
         )
         .unwrap();
         assert_eq!(calls, vec![(0, 0, "cancelled".to_string())]);
-    }
-
-    #[test]
-    fn zeroed_arrays_are_zero_at_any_size() {
-        for n in [0, 1, 1 << 20] {
-            let v = zeroed(n, [0.0f32; 3]);
-            assert_eq!(v.len(), n);
-            assert!(v.iter().all(|p| *p == [0.0; 3]));
-        }
     }
 }

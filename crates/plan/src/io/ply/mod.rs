@@ -21,7 +21,6 @@ use super::pages::Mapped;
 use super::ReadError;
 use crate::cloud::{local_origin, to_local, PointCloud, SourceInfo};
 use crate::io::assemble::{decode_pieces, settle, LocalSlots, Out};
-use crate::io::pages::zeroed;
 use header::{describe, read_header, vertices, Element, Header, Kind, Layout, Scalar};
 
 pub use chunks::PlyChunks;
@@ -508,9 +507,9 @@ impl<R: BufRead + Send> Body<'_, R> {
         let block = self.split.block.max(1);
         let parts = self.split.parts.max(1);
         let c = &mut sink.cloud;
-        c.xyz = zeroed(count, [0.0; 3]);
-        c.scan = zeroed(if records.scan.is_some() { count } else { 0 }, 0);
-        c.time = zeroed(if records.time.is_some() { count } else { 0 }, 0.0);
+        c.xyz = vec![[0.0; 3]; count];
+        c.scan = vec![0; if records.scan.is_some() { count } else { 0 }];
+        c.time = vec![0.0; if records.time.is_some() { count } else { 0 }];
         let (path, base) = (self.path, self.offset);
         let mut written = 0;
         let blocks = count.div_ceil(block);
