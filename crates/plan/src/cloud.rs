@@ -118,21 +118,14 @@ impl PointCloud {
         };
         self.xyz
             .par_chunks(CHECK_BLOCK)
-            .map(|block| {
-                let first = (block[0], block[0]);
-                block.iter().fold(first, |b, p| widen(b, (*p, *p)))
-            })
+            .map(block_bounds)
             .reduce_with(widen)
     }
 
     /// Checks the cross-field invariants readers must uphold.
     pub fn check(&self) -> Result<(), String> {
         self.check_arrays()?;
-        if self
-            .xyz
-            .par_chunks(CHECK_BLOCK)
-            .any(|b| !b.iter().all(|p| p.iter().all(|c| c.is_finite())))
-        {
+        if self.xyz.par_chunks(CHECK_BLOCK).any(|b| !all_finite(b)) {
             return Err(NON_FINITE.into());
         }
         Ok(())
@@ -186,6 +179,44 @@ pub const NON_FINITE: &str = "non-finite coordinate";
 /// Points per parallel block of [`PointCloud::check`] and [`PointCloud::local_bounds`].
 const CHECK_BLOCK: usize = 1 << 16;
 
+/// The bounds of a non-empty block of points, as a fold over them from the first gives them.
+/// Four points at a time in twelve lanes, which compile to vector instructions, then each lane
+/// into its coordinate: min and max give the same result in any order.
+fn block_bounds(block: &[[f32; 3]]) -> ([f32; 3], [f32; 3]) {
+    let first = block[0];
+    let mut lo: [f32; 12] = std::array::from_fn(|i| first[i % 3]);
+    let mut hi = lo;
+    let mut quads = block.as_flattened().chunks_exact(12);
+    for q in &mut quads {
+        for i in 0..12 {
+            lo[i] = lo[i].min(q[i]);
+            hi[i] = hi[i].max(q[i]);
+        }
+    }
+    let (mut l, mut h) = (first, first);
+    for i in 0..12 {
+        l[i % 3] = l[i % 3].min(lo[i]);
+        h[i % 3] = h[i % 3].max(hi[i]);
+    }
+    for p in quads.remainder().chunks_exact(3) {
+        for k in 0..3 {
+            l[k] = l[k].min(p[k]);
+            h[k] = h[k].max(p[k]);
+        }
+    }
+    (l, h)
+}
+
+/// True when every coordinate of `block` is finite: one flag over all of them, with no early
+/// exit inside the block, so the test compiles to vector instructions.
+fn all_finite(block: &[[f32; 3]]) -> bool {
+    let bad = block
+        .as_flattened()
+        .iter()
+        .fold(0u32, |bad, c| bad | u32::from(!c.is_finite()));
+    bad == 0
+}
+
 /// Picks a local origin near `first`, rounded to whole kilometres so nearby clouds share it.
 pub fn local_origin(first: Option<[f64; 3]>) -> [f64; 3] {
     match first {
@@ -232,5 +263,23 @@ mod tests {
         });
         assert_eq!(cloud.local_bounds(), Some(serial));
         assert_eq!(PointCloud::default().local_bounds(), None);
+    }
+
+    #[test]
+    fn check_finds_a_non_finite_coordinate_anywhere() {
+        let n = 2 * CHECK_BLOCK + 7;
+        let good = PointCloud {
+            xyz: (0..n).map(|k| [k as f32, -1.0, 0.5]).collect(),
+            ..Default::default()
+        };
+        assert_eq!(good.check(), Ok(()));
+        // In a block's vector part, its last point, and the last block's short tail.
+        for at in [0, 5, CHECK_BLOCK - 1, CHECK_BLOCK + 12, n - 1] {
+            for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+                let mut c = good.clone();
+                c.xyz[at][at % 3] = bad;
+                assert_eq!(c.check(), Err(NON_FINITE.to_string()), "{at} {bad}");
+            }
+        }
     }
 }

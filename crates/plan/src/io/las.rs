@@ -13,6 +13,7 @@ mod chunks;
 pub use chunks::LasChunks;
 
 use super::assemble::{decode_pieces, settle, CloudBuilder, LocalSlots, Out};
+use super::pages::Mapped;
 use super::{ReadError, ReadOptions};
 use crate::cloud::{to_local, PointCloud};
 
@@ -39,16 +40,32 @@ pub fn read_las<R>(
 where
     R: Read + Seek + Send + Sync + 'static,
 {
-    read_las_with(source, len, name, options, true)
+    read_las_with(source, len, name, options, true, None)
 }
 
-/// [`read_las`], with parallel LAZ decoding allowed or not.
+/// [`read_las`] of a file also mapped as `map`: uncompressed records are decoded straight from
+/// the map, everything else is read from `source`.
+pub(crate) fn read_las_mapped<R>(
+    source: R,
+    len: u64,
+    name: &str,
+    options: &ReadOptions,
+    map: &Mapped,
+) -> Result<PointCloud, ReadError>
+where
+    R: Read + Seek + Send + Sync + 'static,
+{
+    read_las_with(source, len, name, options, true, Some(map))
+}
+
+/// [`read_las`], with parallel decoding allowed or not, from a map of the file when given.
 fn read_las_with<R>(
     mut source: R,
     len: u64,
     name: &str,
     options: &ReadOptions,
     parallel: bool,
+    map: Option<&Mapped>,
 ) -> Result<PointCloud, ReadError>
 where
     R: Read + Seek + Send + Sync + 'static,
@@ -61,7 +78,7 @@ where
     } else if parallel && plan.format == "las" {
         let group = GROUP_PER_THREAD * threads;
         super::pool::install(|| {
-            decode_las_direct(source, name, options, &plan, CHUNK, group, threads)
+            decode_las_direct(source, name, options, &plan, CHUNK, group, threads, map)
         })
     } else {
         decode_las(source, len, name, options, &plan, false)
@@ -188,9 +205,11 @@ fn decode_batch(
 }
 
 /// Uncompressed LAS decoded straight from the file's bytes into the cloud's arrays: batches
-/// of `batch` points are read as [`decode_las`] reads them, `group` at a time (the next group
-/// read while this one is decoded when `parts` > 1), and each group is decoded in `parts`
-/// pieces, with exactly the serial read's points, slots, counts and errors.
+/// of `batch` points are read as [`decode_las`] reads them, `group` at a time (from `map`, the
+/// source's map, when given; else from the source, the next group read while this one is
+/// decoded when `parts` > 1), and each group is decoded in `parts` pieces, with exactly the
+/// serial read's points, slots, counts and errors.
+#[allow(clippy::too_many_arguments)]
 fn decode_las_direct<R>(
     mut source: R,
     name: &str,
@@ -199,6 +218,7 @@ fn decode_las_direct<R>(
     batch: u64,
     group: usize,
     parts: usize,
+    map: Option<&Mapped>,
 ) -> Result<PointCloud, ReadError>
 where
     R: Read + Seek + Send,
@@ -207,6 +227,9 @@ where
     // The header as the `las` reader parses it; that leaves the source at the point data.
     let header =
         las::Header::new(&mut source).map_err(|e| ReadError::named(name, fname, e.to_string()))?;
+    let start = source
+        .stream_position()
+        .map_err(|e| ReadError::io(name, e))?;
     let count = header.number_of_points();
     let layout = Layout::new(&header, options.keep_time);
     // The header check confirmed the count against the file's size.
@@ -219,44 +242,54 @@ where
     let guard = BoundsGuard::new(&header);
     let (batch, size) = (batch.max(1) as usize, layout.size);
     let block = batch * group.max(1);
+    let blocks = n.div_ceil(block);
+    let len = |k: usize| (n - k * block).min(block) * size;
     let mut written = 0;
     let mut outside = 0u64;
-    super::pool::read_ahead(
-        &mut source,
-        n.div_ceil(block),
-        parts > 1,
-        |reader, k, buf| {
-            buf.resize((n - k * block).min(block) * size, 0);
-            for (j, part) in buf.chunks_mut(batch * size).enumerate() {
-                reader.read_exact(part).map_err(|e| (j, e))?;
-            }
-            Ok(())
-        },
-        |k, buf, filled| {
-            // Batches before a failed one are decoded first, as the serial read does.
-            let whole = match &filled {
-                Ok(()) => buf.len(),
-                Err((j, _)) => j * batch * size,
-            };
-            if whole > 0 {
-                let (kept, out) =
-                    decode_las_block(&mut b, &layout, &guard, &buf[..whole], written, parts)
-                        .map_err(|why| ReadError::named(name, fname, why))?;
-                written += kept;
-                outside += out;
-            }
-            filled.map_err(|(j, e)| {
-                let done = (k * block + j * batch) as u64;
-                let end = (done + batch as u64).min(count).max(done + 1) - 1;
-                ReadError::at(
-                    name,
-                    fname,
-                    las::Error::from(e).to_string(),
-                    format!("points {done} to {end} of {count}"),
-                )
-            })
-        },
-    )?;
+    // `filled` fails with the index of the first batch not read whole.
+    let mut use_block = |k: usize, buf: &[u8], filled: Result<(), (usize, std::io::Error)>| {
+        // Batches before a failed one are decoded first, as the serial read does.
+        let whole = match &filled {
+            Ok(()) => buf.len(),
+            Err((j, _)) => j * batch * size,
+        };
+        if whole > 0 {
+            let (kept, out) =
+                decode_las_block(&mut b, &layout, &guard, &buf[..whole], written, parts)
+                    .map_err(|why| ReadError::named(name, fname, why))?;
+            written += kept;
+            outside += out;
+        }
+        filled.map_err(|(j, e)| {
+            let done = (k * block + j * batch) as u64;
+            let end = (done + batch as u64).min(count).max(done + 1) - 1;
+            ReadError::at(
+                name,
+                fname,
+                las::Error::from(e).to_string(),
+                format!("points {done} to {end} of {count}"),
+            )
+        })
+    };
+    match map {
+        Some(map) => map.blocks(start, blocks, len, |k, buf, filled| {
+            // A short block holds whole batches up to the first one the file cut.
+            use_block(k, buf, filled.map_err(|e| (buf.len() / (batch * size), e)))
+        })?,
+        None => super::pool::read_ahead(
+            &mut source,
+            blocks,
+            parts > 1,
+            |reader, k, buf| {
+                buf.resize(len(k), 0);
+                for (j, part) in buf.chunks_mut(batch * size).enumerate() {
+                    reader.read_exact(part).map_err(|e| (j, e))?;
+                }
+                Ok(())
+            },
+            use_block,
+        )?,
+    }
     let c = b.cloud_mut();
     c.xyz.truncate(written);
     c.scan.truncate(written);
@@ -365,33 +398,58 @@ fn decode_las_piece(
     origin: [f64; 3],
     out: Out<'_>,
 ) -> LasPiece {
-    let mut piece = LasPiece {
-        kept: 0,
-        skipped: 0,
-        outside: 0,
-        slots: LocalSlots::new(),
-    };
-    let (ps, mut w) = (layout.scan, 0);
+    match layout.time {
+        Some(g) => decode_las_piece_with::<true>(layout, g, guard, recs, origin, out),
+        None => decode_las_piece_with::<false>(layout, 0, guard, recs, origin, out),
+    }
+}
+
+/// [`decode_las_piece`] with or without the time at offset `g`, the loop's state (the last
+/// scan's slot among it) in registers.
+#[inline(always)]
+fn decode_las_piece_with<const TIME: bool>(
+    layout: &Layout,
+    g: usize,
+    guard: &BoundsGuard,
+    recs: &[u8],
+    origin: [f64; 3],
+    out: Out<'_>,
+) -> LasPiece {
+    let mut slots = LocalSlots::new();
+    let (xyz, scan, time) = (out.xyz, out.scan, out.time);
+    let (ps, mut w, mut skipped, mut outside) = (layout.scan, 0, 0, 0);
+    let mut last: Option<(u16, u16)> = None;
     for rec in recs.chunks_exact(layout.size) {
         let p = layout.point(rec);
         // Stale bounds are common in plain LAS: such points are kept and counted.
-        piece.outside += u64::from(!guard.contains(p));
+        outside += u64::from(!guard.contains(p));
         let id = u16::from_le_bytes(take(rec, ps));
-        // A `u16` id never runs out of slots.
-        let slot = piece.slots.slot(u32::from(id)).unwrap_or_default();
+        let slot = match last {
+            Some((l, slot)) if l == id => slot,
+            // A `u16` id never runs out of slots.
+            _ => {
+                let slot = slots.slot(u32::from(id)).unwrap_or_default();
+                last = Some((id, slot));
+                slot
+            }
+        };
         if !finite(&p) {
-            piece.skipped += 1;
+            skipped += 1;
             continue;
         }
-        out.xyz[w] = to_local(origin, p);
-        out.scan[w] = slot;
-        if let Some(g) = layout.time {
-            out.time[w] = f64::from_le_bytes(take(rec, g));
+        xyz[w] = to_local(origin, p);
+        scan[w] = slot;
+        if TIME {
+            time[w] = f64::from_le_bytes(take(rec, g));
         }
         w += 1;
     }
-    piece.kept = w;
-    piece
+    LasPiece {
+        kept: w,
+        skipped,
+        outside,
+        slots,
+    }
 }
 
 /// Checks every point came, and records the CRS and what was read.
@@ -989,16 +1047,18 @@ mod tests {
                 "t.las",
                 &ReadOptions::default(),
                 false,
+                None,
             )
             .unwrap();
             let skipped = serial.source.skipped as usize;
             assert_eq!((skipped > 0, serial.len()), (skips, n - skipped));
             assert!(serial.len() > 1_000, "some points are still kept");
-            let direct = |batch: u64, group: usize, parts: usize| {
+            let map = mapped(&dir.path().join("m.las"), bytes);
+            let direct = |batch: u64, group: usize, parts: usize, map: Option<&Mapped>| {
                 let mut source = Cursor::new(bytes.clone());
                 let plan = check_header(&mut source, len, "t.las").unwrap();
                 let options = ReadOptions::default();
-                decode_las_direct(source, "t.las", &options, &plan, batch, group, parts)
+                decode_las_direct(source, "t.las", &options, &plan, batch, group, parts, map)
             };
             let cases = [
                 (13, 3, 2),
@@ -1009,7 +1069,10 @@ mod tests {
                 (n as u64, 2, 2),
             ];
             for (batch, group, parts) in cases {
-                let parallel = direct(batch, group, parts).unwrap();
+                let parallel = direct(batch, group, parts, None).unwrap();
+                assert_same(&serial, &parallel);
+                // From a map, blocks end inside pages and records cross page ends.
+                let parallel = direct(batch, group, parts, Some(&map)).unwrap();
                 assert_same(&serial, &parallel);
             }
         }
@@ -1018,7 +1081,8 @@ mod tests {
             inner: Cursor::new(bytes.clone()),
             limit: len - 40_000,
         };
-        let serial = read_las_with(failing(), len, "t.las", &ReadOptions::default(), false)
+        let options = ReadOptions::default();
+        let serial = read_las_with(failing(), len, "t.las", &options, false, None)
             .unwrap_err()
             .to_string();
         assert!(
@@ -1027,13 +1091,61 @@ mod tests {
         );
         let plan = check_header(&mut failing(), len, "t.las").unwrap();
         for (group, parts) in [(3, 2), (1, 1), (8, 3)] {
-            let options = ReadOptions::default();
-            let parallel =
-                decode_las_direct(failing(), "t.las", &options, &plan, CHUNK, group, parts)
-                    .unwrap_err()
-                    .to_string();
+            let parallel = decode_las_direct(
+                failing(),
+                "t.las",
+                &options,
+                &plan,
+                CHUNK,
+                group,
+                parts,
+                None,
+            )
+            .unwrap_err()
+            .to_string();
             assert_eq!(parallel, serial);
         }
+        // A file that shrank after its size was checked ends inside a batch: the map gives
+        // the error the serial read of the shorter file gives, for the same points.
+        let cut = &bytes[..bytes.len() - 40_000];
+        let serial = decode_las(
+            Cursor::new(cut.to_vec()),
+            len,
+            "t.las",
+            &options,
+            &plan,
+            false,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            serial.contains("points 131072 to 150010 of 150011"),
+            "{serial}"
+        );
+        let map = mapped(&dir.path().join("cut.las"), cut);
+        for (batch, group, parts) in [(CHUNK, 3, 2), (CHUNK, 1, 1), (CHUNK, 8, 3)] {
+            let source = Cursor::new(bytes.clone());
+            let parallel = decode_las_direct(
+                source,
+                "t.las",
+                &options,
+                &plan,
+                batch,
+                group,
+                parts,
+                Some(&map),
+            )
+            .unwrap_err()
+            .to_string();
+            assert_eq!(parallel, serial);
+        }
+    }
+
+    /// `bytes` written to `path`, mapped.
+    fn mapped(path: &std::path::Path, bytes: &[u8]) -> Mapped {
+        std::fs::write(path, bytes).unwrap();
+        let file = std::fs::File::open(path).unwrap();
+        Mapped::new(&file, &ReadOptions::default()).expect("a file maps")
     }
 
     #[test]
@@ -1062,7 +1174,15 @@ mod tests {
         assert!(chunk < n as u64, "one chunk only: nothing to split");
         let read = |parallel: bool| {
             let source = Cursor::new(bytes.clone());
-            read_las_with(source, len, "t.laz", &ReadOptions::default(), parallel).unwrap()
+            read_las_with(
+                source,
+                len,
+                "t.laz",
+                &ReadOptions::default(),
+                parallel,
+                None,
+            )
+            .unwrap()
         };
         let (serial, parallel) = (read(false), read(true));
         assert_eq!(serial.len(), n);

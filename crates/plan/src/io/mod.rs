@@ -10,6 +10,7 @@ pub mod export;
 pub mod geojson;
 pub(crate) mod las;
 pub mod outputs;
+mod pages;
 pub mod ply;
 mod pool;
 pub mod poses;
@@ -217,9 +218,15 @@ pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<PointCloud,
     let mut file = File::open(path).map_err(|e| ReadError::io(&name, e))?;
     let head = sniff(&mut file, &name)?;
     let format = choose_format(&name, &head, options)?;
+    // Fixed-size records are decoded straight from a map of the file, without a copy.
+    let map = match format {
+        Format::Ply | Format::Las => pages::Mapped::new(&file, options),
+        _ => None,
+    };
     let file = Checked::new(file, options);
-    let read = match format {
-        Format::Ply => {
+    let read = match (format, map) {
+        (Format::Ply, Some(map)) => ply::read_ply_mapped(file, &map, &name),
+        (Format::Ply, None) => {
             let len = file
                 .inner
                 .metadata()
@@ -227,7 +234,7 @@ pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<PointCloud,
                 .len();
             ply::read_ply_from(file, len, &name)
         }
-        _ => read_stream(file, &name, format, options),
+        (_, map) => read_stream(file, &name, format, options, map),
     };
     let mut cloud = stopped(read, &name, options)?;
     if let Some(named) = Format::from_extension(path) {
@@ -269,7 +276,11 @@ where
     let head = sniff(&mut source, name)?;
     let format = choose_format(name, &head, options)?;
     let source = Checked::new(source, options);
-    let cloud = stopped(read_stream(source, name, format, options), name, options)?;
+    let cloud = stopped(
+        read_stream(source, name, format, options, None),
+        name,
+        options,
+    )?;
     finish(cloud, name, options)
 }
 
@@ -365,11 +376,13 @@ fn choose_format(name: &str, head: &[u8], options: &ReadOptions) -> Result<Forma
 /// Runs the reader on a thread of its own. The LAZ arithmetic decoder recurses deeply enough to
 /// overflow the main thread's stack on some files, so the thread gets a large stack (reserved,
 /// not committed); and a panic in a decoder becomes an error naming the file, not a crash.
+/// An uncompressed LAS file's records are decoded from `map`, the source's map, when given.
 fn read_stream<R>(
     mut source: R,
     name: &str,
     format: Format,
     options: &ReadOptions,
+    map: Option<pages::Mapped>,
 ) -> Result<PointCloud, ReadError>
 where
     R: Read + Seek + Send + Sync + 'static,
@@ -390,7 +403,11 @@ where
                 Format::E57 => e57::read_e57(source, len, name, &opts),
                 // The LAZ decoder reads a byte at a time: buffer it.
                 Format::Las | Format::Laz => {
-                    las::read_las(BufReader::with_capacity(1 << 16, source), len, name, &opts)
+                    let source = BufReader::with_capacity(1 << 16, source);
+                    match &map {
+                        Some(map) => las::read_las_mapped(source, len, name, &opts, map),
+                        None => las::read_las(source, len, name, &opts),
+                    }
                 }
                 Format::Xyz | Format::Pts => xyz::read_xyz(
                     BufReader::with_capacity(1 << 20, source),

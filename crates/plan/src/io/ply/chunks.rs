@@ -50,6 +50,7 @@ impl PlyChunks {
                 line: header.lines,
                 text: String::new(),
                 split: Split::SERIAL,
+                map: None,
             };
             for element in &header.elements[..vertex_pos] {
                 body.skip_element(element)?;
@@ -110,6 +111,7 @@ impl PlyChunks {
             line: self.line,
             text: String::new(),
             split: Split::SERIAL,
+            map: None,
         };
         body.fill(&mut self.buf, "the vertex data")
             .map_err(|e| truncated_vertices(e, self.done, self.vertex.count, n))?;
@@ -157,6 +159,7 @@ impl PlyChunks {
             line: self.line,
             text: String::new(),
             split: Split::SERIAL,
+            map: None,
         };
         let result = body.read_vertices(&one, self.layout, &mut self.sink);
         self.offset = body.offset;

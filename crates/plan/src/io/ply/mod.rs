@@ -17,6 +17,7 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
+use super::pages::Mapped;
 use super::ReadError;
 use crate::cloud::{local_origin, to_local, PointCloud, SourceInfo};
 use crate::io::assemble::{decode_pieces, settle, LocalSlots, Out};
@@ -65,13 +66,17 @@ pub fn read_ply_from<R: Read + Send>(
     len: u64,
     name: &str,
 ) -> Result<PointCloud, ReadError> {
-    let parts = super::pool::threads();
-    let split = Split {
-        block: CHUNK_VERTICES * CHUNKS_PER_THREAD * parts,
-        parts,
-        direct: true,
-    };
-    read_ply_split(source, len, name, split)
+    read_ply_split(source, len, name, Split::parallel(), None)
+}
+
+/// [`read_ply_from`] of a file also mapped as `map`: fixed-size binary vertices are decoded
+/// straight from the map, everything else is read from `source`.
+pub(crate) fn read_ply_mapped<R: Read + Send>(
+    source: R,
+    map: &Mapped,
+    name: &str,
+) -> Result<PointCloud, ReadError> {
+    read_ply_split(source, map.len(), name, Split::parallel(), Some(map))
 }
 
 /// How binary vertices are read: `block` records at a time, each block decoded in `parts`;
@@ -84,6 +89,16 @@ struct Split {
 }
 
 impl Split {
+    /// Blocks of a few chunks per thread, each decoded in a part per thread.
+    fn parallel() -> Split {
+        let parts = super::pool::threads();
+        Split {
+            block: CHUNK_VERTICES * CHUNKS_PER_THREAD * parts,
+            parts,
+            direct: true,
+        }
+    }
+
     /// A chunk at a time, on the calling thread, through the point sink.
     const SERIAL: Split = Split {
         block: CHUNK_VERTICES,
@@ -97,6 +112,7 @@ fn read_ply_split<R: Read + Send>(
     len: u64,
     name: &str,
     split: Split,
+    map: Option<&Mapped>,
 ) -> Result<PointCloud, ReadError> {
     let path = Path::new(name);
     let file_len = len;
@@ -113,6 +129,7 @@ fn read_ply_split<R: Read + Send>(
         line: header.lines,
         text: String::new(),
         split,
+        map,
     };
     for element in &header.elements[..vertex_pos] {
         body.skip_element(element)?;
@@ -296,6 +313,8 @@ struct Body<'a, R: BufRead> {
     line: u64,
     text: String,
     split: Split,
+    /// The whole file, when it is mapped: fixed-size vertices are then decoded from here.
+    map: Option<&'a Mapped>,
 }
 
 impl<R: BufRead + Send> Body<'_, R> {
@@ -475,8 +494,8 @@ impl<R: BufRead + Send> Body<'_, R> {
 
     /// The fixed-size records decoded in parallel pieces straight into the cloud's arrays,
     /// sized to the header's count (checked against the file's size) and zeroed lazily, so
-    /// pages are first touched by the thread that fills them. The next block is read while
-    /// this one is decoded.
+    /// pages are first touched by the thread that fills them. A mapped file's blocks are
+    /// decoded from the map; a stream's next block is read while this one is decoded.
     fn read_fixed_direct(
         &mut self,
         vertex: &Element,
@@ -493,32 +512,38 @@ impl<R: BufRead + Send> Body<'_, R> {
         c.time = vec![0.0; if records.time.is_some() { count } else { 0 }];
         let (path, base) = (self.path, self.offset);
         let mut written = 0;
-        crate::io::pool::read_ahead(
-            &mut *self.reader,
-            count.div_ceil(block),
-            parts > 1,
-            |reader, k, buf| {
-                buf.resize((count - k * block).min(block) * size, 0);
-                reader.read_exact(buf)
-            },
-            |k, buf, filled| {
-                let done = (k * block) as u64;
-                let start = base + done * size as u64;
-                filled.map_err(|e| {
-                    let e = fill_error(path, e, "the vertex data", start);
-                    truncated_vertices(e, done, vertex.count, block)
-                })?;
-                records
-                    .decode_direct(sink, &mut written, buf, parts)
-                    .map_err(|(i, why)| {
-                        invalid(
-                            path,
-                            format!("vertex {}: {why}", done + i as u64),
-                            Some(format!("byte offset {}", start + (i * size) as u64)),
-                        )
-                    })
-            },
-        )?;
+        let blocks = count.div_ceil(block);
+        let len = |k: usize| (count - k * block).min(block) * size;
+        let use_block = |k: usize, buf: &[u8], filled: std::io::Result<()>| {
+            let done = (k * block) as u64;
+            let start = base + done * size as u64;
+            filled.map_err(|e| {
+                let e = fill_error(path, e, "the vertex data", start);
+                truncated_vertices(e, done, vertex.count, block)
+            })?;
+            records
+                .decode_direct(sink, &mut written, buf, parts)
+                .map_err(|(i, why)| {
+                    invalid(
+                        path,
+                        format!("vertex {}: {why}", done + i as u64),
+                        Some(format!("byte offset {}", start + (i * size) as u64)),
+                    )
+                })
+        };
+        match self.map {
+            Some(map) => map.blocks(base, blocks, len, use_block)?,
+            None => crate::io::pool::read_ahead(
+                &mut *self.reader,
+                blocks,
+                parts > 1,
+                |reader, k, buf| {
+                    buf.resize(len(k), 0);
+                    reader.read_exact(buf)
+                },
+                use_block,
+            )?,
+        }
         self.offset = base + (count * size) as u64;
         let c = &mut sink.cloud;
         c.xyz.truncate(written);
@@ -706,6 +731,7 @@ impl<R: BufRead + Send> Body<'_, R> {
             line: self.line,
             text: std::mem::take(&mut self.text),
             split: Split::SERIAL,
+            map: None,
         };
         let result = body.read_ascii_vertices(vertex, layout, sink, first, n);
         self.offset = body.offset;
@@ -910,7 +936,7 @@ impl Records {
         let per = n.div_ceil(parts.max(1)).max(1);
         let out = Out::of(&mut sink.cloud, at, n);
         let pieces = decode_pieces(out, buf, size, per, |recs, out| {
-            decode_piece(fields, recs, size, origin, out)
+            fields.piece(recs, size, origin, out)
         });
         // Pieces' scans take the cloud's slots in order, as a serial read would give them.
         let known = sink.cloud.scan_ids.len();
@@ -1029,6 +1055,15 @@ trait Fields: Sync {
     fn time(&self, rec: &[u8]) -> Option<f64>;
     /// The scan id, if the layout has one; an error when it is not a whole number.
     fn scan(&self, rec: &[u8]) -> Option<Result<u32, String>>;
+
+    /// Decodes the records `recs` into the start of `out`: [`decode_piece`] unless a layout
+    /// knows a faster way to the same result.
+    fn piece(&self, recs: &[u8], size: usize, origin: [f64; 3], out: Out<'_>) -> Piece
+    where
+        Self: Sized,
+    {
+        decode_piece(self, recs, size, origin, out)
+    }
 }
 
 /// Any fixed layout, each field decoded by its type.
@@ -1079,6 +1114,67 @@ impl Fields for F32Fields {
     #[inline(always)]
     fn scan(&self, rec: &[u8]) -> Option<Result<u32, String>> {
         self.scan.map(|o| Ok(u32::from_le_bytes(le4(rec, o))))
+    }
+
+    fn piece(&self, recs: &[u8], size: usize, origin: [f64; 3], out: Out<'_>) -> Piece {
+        match self.scan {
+            Some(o) => self.piece_with::<true>(o, recs, size, origin, out),
+            None => self.piece_with::<false>(0, recs, size, origin, out),
+        }
+    }
+}
+
+impl F32Fields {
+    /// [`decode_piece`] for this layout, with or without the scan index at `so`: the same
+    /// points, slots and failure from a loop that keeps its state (the last scan's slot
+    /// among it) in registers.
+    #[inline(always)]
+    fn piece_with<const SCAN: bool>(
+        &self,
+        so: usize,
+        recs: &[u8],
+        size: usize,
+        origin: [f64; 3],
+        out: Out<'_>,
+    ) -> Piece {
+        let mut slots = LocalSlots::new();
+        let [ox, oy, oz] = self.xyz;
+        let (xyz, scan) = (out.xyz, out.scan);
+        let (mut w, mut skipped, mut failed) = (0, 0, false);
+        let mut last: Option<(u32, u16)> = None;
+        for rec in recs.chunks_exact(size) {
+            let f = |o: usize| f32::from_le_bytes(le4(rec, o));
+            let (x, y, z) = (f(ox), f(oy), f(oz));
+            if !(x.is_finite() & y.is_finite() & z.is_finite()) {
+                skipped += 1;
+                continue;
+            }
+            if SCAN {
+                let id = u32::from_le_bytes(le4(rec, so));
+                let slot = match last {
+                    Some((l, slot)) if l == id => slot,
+                    _ => match slots.slot(id) {
+                        Some(slot) => {
+                            last = Some((id, slot));
+                            slot
+                        }
+                        None => {
+                            failed = true;
+                            break;
+                        }
+                    },
+                };
+                scan[w] = slot;
+            }
+            xyz[w] = to_local(origin, [f64::from(x), f64::from(y), f64::from(z)]);
+            w += 1;
+        }
+        Piece {
+            kept: w,
+            skipped,
+            slots,
+            failed,
+        }
     }
 }
 
@@ -1228,12 +1324,32 @@ mod tests {
     }
 
     fn read(bytes: &[u8], split: Split) -> Result<PointCloud, ReadError> {
-        read_ply_split(
-            std::io::Cursor::new(bytes.to_vec()),
-            bytes.len() as u64,
-            "t.ply",
-            split,
-        )
+        read_claiming(bytes, bytes.len() as u64, split, false)
+    }
+
+    /// [`read`] of `bytes` written to a file, the vertices decoded from its map.
+    fn read_mapped(bytes: &[u8], split: Split) -> Result<PointCloud, ReadError> {
+        read_claiming(bytes, bytes.len() as u64, split, true)
+    }
+
+    /// Reads `bytes` as a file of `len` bytes (more, for a file that shrank after its size
+    /// was taken), from a map of them or as a stream.
+    fn read_claiming(
+        bytes: &[u8],
+        len: u64,
+        split: Split,
+        mapped: bool,
+    ) -> Result<PointCloud, ReadError> {
+        let source = std::io::Cursor::new(bytes.to_vec());
+        if !mapped {
+            return read_ply_split(source, len, "t.ply", split, None);
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.ply");
+        std::fs::write(&path, bytes).unwrap();
+        let file = File::open(&path).unwrap();
+        let map = Mapped::new(&file, &Default::default()).expect("a file maps");
+        read_ply_split(source, len, "t.ply", split, Some(&map))
     }
 
     fn same(a: &PointCloud, b: &PointCloud) {
@@ -1268,7 +1384,24 @@ mod tests {
                         direct,
                     };
                     same(&serial, &read(&bytes, split).unwrap());
+                    // From a map, blocks end inside pages and records cross page ends.
+                    same(&serial, &read_mapped(&bytes, split).unwrap());
                 }
+            }
+            // A file that shrank after its size was checked ends inside a block: the map
+            // gives the error the stream gives, at the same vertex.
+            let cut = &bytes[..bytes.len() - 5_000];
+            for (block, parts) in [(997, 3), (4_099, 2), (1 << 20, 2)] {
+                let split = Split {
+                    block,
+                    parts,
+                    direct: true,
+                };
+                let len = bytes.len() as u64;
+                let stream = read_claiming(cut, len, split, false).unwrap_err();
+                assert!(stream.to_string().contains("truncated"), "{stream}");
+                let mapped = read_claiming(cut, len, split, true).unwrap_err();
+                assert_eq!(stream.to_string(), mapped.to_string());
             }
         }
     }
@@ -1353,6 +1486,7 @@ mod tests {
                     direct,
                 };
                 assert_eq!(read(&bytes, split).unwrap_err().to_string(), serial);
+                assert_eq!(read_mapped(&bytes, split).unwrap_err().to_string(), serial);
             }
             // A truncated body is still an error, not a panic.
             let cut = &bytes[..bytes.len() - 7];
@@ -1363,6 +1497,10 @@ mod tests {
             };
             let err = read(cut, split).unwrap_err();
             assert!(err.to_string().contains("truncated"), "{err}");
+            assert_eq!(
+                read_mapped(cut, split).unwrap_err().to_string(),
+                err.to_string()
+            );
         }
     }
 }
