@@ -376,6 +376,7 @@ where
     let decoder = |e: laz::LasZipError| ReadError::named(name, "laz", e.to_string());
     // The whole-file read decodes in parallel only with a sound table; else it goes on
     // serially, and so had better do it itself.
+    source.seek(SeekFrom::Start(0)).map_err(io)?;
     let plan = check_header(&mut source, len, name)?;
     if plan.laz_chunk.is_none() {
         return Err(not_here(name, "no chunk table to decode in parallel from"));
