@@ -662,8 +662,7 @@ mod tests {
         {
             let file = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
             let mut writer = las::Writer::new(file, header).unwrap();
-            for i in 0..n {
-                let p = c.xyz[i];
+            for (i, p) in c.xyz.iter().enumerate() {
                 writer
                     .write_point(las::Point {
                         x: c.origin[0] + f64::from(p[0]),
