@@ -9,8 +9,10 @@
 //! no worker has taken yet.
 //!
 //! The bytes go to an unlinked scratch file as the request body passes (the reader may seek),
-//! and a reader thread follows them: a read past what has arrived waits for more. Formats whose
-//! reader needs the end of the file first (E57's XML, LAZ's chunk table) are left to the worker.
+//! and a reader thread follows them: a read past what has arrived waits for more. LAZ chunks
+//! are decoded front to back as they come, and those left when the last byte is in are decoded
+//! in parallel from the chunk table at the file's end (`io::read_laz_arriving`). Formats whose
+//! reader needs the end of the file first (E57's XML) are left to the worker.
 
 use std::fs::File;
 use std::io::{Read, Seek, SeekFrom, Write};
@@ -21,12 +23,15 @@ use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use asbuilt_plan::io::{declared_points_in_head, read_cloud_from, ReadOptions};
+use asbuilt_plan::io::detect::{detect, Format, SNIFF_LEN};
+use asbuilt_plan::io::{
+    declared_points_in_head, read_cloud_from, read_laz_arriving, Arriving, ReadOptions,
+};
 use asbuilt_plan::PointCloud;
 
 use crate::queue::JobId;
 
-/// Formats whose readers go from the front of the file to its end.
+/// Formats whose readers go from the front of the file to its end (`las` covers LAZ).
 const FRONT_TO_BACK: [&str; 4] = ["ply", "las", "xyz", "pts"];
 
 /// The bytes a header's count is looked for in.
@@ -216,7 +221,12 @@ fn read(mut source: Growing, max_points: u64) -> Result<PointCloud, String> {
     if let Some(n) = declared_points_in_head(&head).filter(|&n| n > max_points) {
         return Err(format!("{n} points, over the limit"));
     }
-    read_cloud_from(source, "cloud", &ReadOptions::default()).map_err(|e| e.to_string())
+    let options = ReadOptions::default();
+    match detect(&head[..head.len().min(SNIFF_LEN)]) {
+        Ok(Format::Laz) => read_laz_arriving(source, "cloud", &options),
+        _ => read_cloud_from(source, "cloud", &options),
+    }
+    .map_err(|e| e.to_string())
 }
 
 /// An unlinked file: it goes when the last handle closes, whatever happens to the process.
@@ -357,6 +367,13 @@ impl Read for Growing {
     }
 }
 
+impl Arriving for Growing {
+    fn arrived(&self) -> bool {
+        let state = self.growth.state();
+        state.written >= self.total || !matches!(state.end, End::Open)
+    }
+}
+
 impl Seek for Growing {
     fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
         let to = match pos {
@@ -421,6 +438,99 @@ mod tests {
         // The slot is free again, and nothing is left in the scratch folder.
         assert!(early.take(job).is_none());
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+
+    /// A simulated room as LAZ: three chunks of 50 000 points, the last short.
+    fn laz_bytes() -> Vec<u8> {
+        let options = ScanOptions {
+            points: 120_000,
+            seed: 3,
+            ..Default::default()
+        };
+        let sim = simulate(BuildingKind::SquareRoom, &options).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("room.laz");
+        asbuilt_plan::io::export::write_las(&path, &sim.cloud, true).unwrap();
+        std::fs::read(path).unwrap()
+    }
+
+    /// Uploads `bytes` declared as `total` through an early read, in pieces of random sizes
+    /// with pauses between them, and gives what the read made of them.
+    fn upload(bytes: Vec<u8>, total: u64, seed: u64) -> Result<Decoded, String> {
+        let dir = tempfile::tempdir().unwrap();
+        let early = Early::new(true, dir.path().into(), 10_000_000, 1);
+        let job = JobId::new();
+        let feed = early.begin(job, "las", Some(total)).expect("an early read");
+        let sender = std::thread::spawn(move || {
+            let (mut state, mut at) = (seed | 1, 0);
+            while at < bytes.len() {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                let n = (1 + (state % 20_000) as usize).min(bytes.len() - at);
+                feed.push(&bytes[at..at + n]);
+                at += n;
+                std::thread::sleep(Duration::from_micros(200));
+            }
+            feed.finish(bytes.len() as u64);
+        });
+        sender.join().unwrap();
+        early.take(job).unwrap().finish()
+    }
+
+    #[test]
+    fn a_laz_read_as_it_arrives_gives_the_files_cloud() {
+        let bytes = laz_bytes();
+        let whole = read_cloud_from(
+            std::io::Cursor::new(bytes.clone()),
+            "cloud",
+            &ReadOptions::default(),
+        )
+        .unwrap();
+        for seed in [1, 2] {
+            let decoded = upload(bytes.clone(), bytes.len() as u64, seed).unwrap();
+            let c = &decoded.cloud;
+            assert_eq!(decoded.bytes, bytes.len() as u64);
+            assert_eq!(c.xyz, whole.xyz);
+            assert_eq!(c.scan, whole.scan);
+            assert_eq!(c.scan_ids, whole.scan_ids);
+            assert_eq!(c.time, whole.time);
+            assert_eq!(c.origin, whole.origin);
+            assert_eq!(c.source, whole.source);
+        }
+    }
+
+    #[test]
+    fn a_cut_or_damaged_laz_fails_its_early_read_or_reads_as_the_stored_file() {
+        let bytes = laz_bytes();
+        let len = bytes.len();
+        // Cut: the stored file fails too, and the worker reports its error.
+        let cut = bytes[..len * 2 / 3].to_vec();
+        let stored = read_cloud_from(
+            std::io::Cursor::new(cut.clone()),
+            "cloud",
+            &ReadOptions::default(),
+        );
+        assert!(stored.is_err());
+        assert!(upload(cut.clone(), cut.len() as u64, 4).is_err());
+        // A damaged chunk table: the early read may only give what the stored read gives.
+        for back in [2, 5, 9] {
+            let mut damaged = bytes.clone();
+            damaged[len - back] ^= 0x5a;
+            let stored = read_cloud_from(
+                std::io::Cursor::new(damaged.clone()),
+                "cloud",
+                &ReadOptions::default(),
+            );
+            match (upload(damaged, len as u64, 5), stored) {
+                (Ok(early), Ok(stored)) => {
+                    assert_eq!(early.cloud.xyz, stored.xyz);
+                    assert_eq!(early.cloud.source, stored.source);
+                }
+                (Ok(_), Err(e)) => panic!("read early, but the stored file fails: {e}"),
+                (Err(_), _) => {}
+            }
+        }
     }
 
     #[test]

@@ -8,8 +8,10 @@ use std::io::{Read, Seek, SeekFrom};
 
 use las::{LazParallelism, PointData, PointDataBuilder, Reader, ReaderOptions};
 
+mod arriving;
 mod chunks;
 
+pub use arriving::{read_laz_arriving, Arriving};
 pub use chunks::LasChunks;
 
 use super::assemble::{decode_pieces, settle, CloudBuilder, LocalSlots, Out};
@@ -830,6 +832,24 @@ fn laszip_items<R: Read + Seek>(
     Ok(None)
 }
 
+/// A layered chunk's shape for item list `items` (type, size): its layer count and the bytes
+/// of its first point, which is stored raw; `None` when an item is not a layered one.
+fn layered_shape(items: &[(u16, u16)]) -> Option<(u64, u64)> {
+    let mut layers = 0u64;
+    let mut first_point = 0u64;
+    for &(kind, size) in items {
+        layers += match kind {
+            10 => 9,               // Point14
+            11 | 13 => 1,          // RGB14, WavePacket14
+            12 => 2,               // RGBNIR14
+            14 => u64::from(size), // Byte14: a layer per byte
+            _ => return None,
+        };
+        first_point += u64::from(size);
+    }
+    Some((layers, first_point))
+}
+
 /// Walks the chunks of a layered LAZ file, checking each layer's size against the file. The
 /// decoder allocates (and zeroes) a buffer of each declared size before reading it, so a damaged
 /// size of 4 GB would otherwise cost 4 GB. A chunk is its first point raw, the point count,
@@ -843,18 +863,10 @@ fn check_layered_chunks<R: Read + Seek>(
     name: &str,
 ) -> Result<(), ReadError> {
     let io = |e: std::io::Error| ReadError::io(name, e);
-    let mut layers = 0u64;
-    let mut first_point = 0u64;
-    for &(kind, size) in items {
-        layers += match kind {
-            10 => 9,               // Point14
-            11 | 13 => 1,          // RGB14, WavePacket14
-            12 => 2,               // RGBNIR14
-            14 => u64::from(size), // Byte14: a layer per byte
-            _ => return Ok(()),    // not layered: the decoder refuses it
-        };
-        first_point += u64::from(size);
-    }
+    // Not layered: the decoder refuses it.
+    let Some((layers, first_point)) = layered_shape(items) else {
+        return Ok(());
+    };
     let mut at = start + 8;
     let mut left = points;
     let mut chunk = 0u64;

@@ -31,6 +31,7 @@ use crate::cancel::{Cancel, Cancelled};
 use crate::cloud::{PointCloud, Viewpoints};
 pub use count::{declared_points, declared_points_in_head};
 pub use detect::Format;
+pub use las::Arriving;
 pub use sidecar::{Sidecar, SidecarKind};
 pub use units::{check_units, UnitsError};
 
@@ -284,6 +285,44 @@ where
     finish(cloud, name, options)
 }
 
+/// Reads a LAZ file while it arrives (an upload being received): its chunks are decoded front
+/// to back as their bytes come, and those left when the last byte is in are decoded in
+/// parallel. The cloud is exactly [`read_cloud_from`]'s for the whole file. A file this read
+/// does not decode (not LAZ, variable-sized chunks, extended VLRs, a chunk table the whole-file
+/// read would not use) or any error fails it: read the whole file then, for the cloud or the
+/// error.
+pub fn read_laz_arriving<R>(
+    mut source: R,
+    name: &str,
+    options: &ReadOptions,
+) -> Result<PointCloud, ReadError>
+where
+    R: Arriving + Send + Sync + 'static,
+{
+    const STACK: usize = 1 << 30;
+    let len = source
+        .seek(SeekFrom::End(0))
+        .and_then(|len| source.seek(SeekFrom::Start(0)).map(|_| len))
+        .map_err(|e| ReadError::io(name, e))?;
+    let source = Checked::new(source, options);
+    let (owned_name, opts) = (name.to_string(), options.clone());
+    // A thread with a large stack, as for the whole-file read: the LAZ decoder recurses.
+    let worker = std::thread::Builder::new()
+        .name("asbuilt-read".into())
+        .stack_size(STACK)
+        .spawn(move || las::read_laz_arriving(source, len, &owned_name, &opts))
+        .map_err(|e| ReadError::io(name, e))?;
+    let read = worker.join().unwrap_or_else(|panic| {
+        Err(ReadError::named(
+            name,
+            "laz",
+            format!("the decoder failed ({})", panic_text(&panic)),
+        ))
+    });
+    let cloud = stopped(read, name, options)?;
+    finish(cloud, name, options)
+}
+
 /// A read that failed because `options.cancel` stopped it, whatever error the reader made of
 /// the refused bytes, becomes [`ReadError::Cancelled`].
 fn stopped(
@@ -325,6 +364,12 @@ impl<R: Read> Read for Checked<R> {
         self.position += n as u64;
         self.bytes.reached(self.position);
         Ok(n)
+    }
+}
+
+impl<R: Arriving> Arriving for Checked<R> {
+    fn arrived(&self) -> bool {
+        self.inner.arrived()
     }
 }
 

@@ -1,0 +1,773 @@
+//! LAZ decoded while its file arrives (an upload being received), so that little is left to
+//! decode when the last byte lands.
+//!
+//! The header and VLRs come first. Then the chunks are decoded front to back on one thread as
+//! their bytes arrive: LASzip's sequential decoder needs no chunk table for fixed-size chunks.
+//! Once every byte is in, the file gets the whole-file read's checks (`check_header`, the header
+//! as the `las` crate parses it, the chunk table) and the chunks left are decoded in parallel
+//! from the table.
+//!
+//! The cloud is exactly [`super::read_las`]'s for the whole file. Every chunk decoded front to
+//! back must have ended where the table says it does, so both reads decoded the same bytes;
+//! every chunk is decoded whole (the table's last until its bytes end), as the parallel reader
+//! decodes them, so a damaged tail fails both; the records become points through the code of
+//! uncompressed LAS ([`super::decode_las_block`]) with the LAZ rule that a point outside the
+//! header's bounds is an error. Whatever this read cannot vouch for (variable-sized or huge
+//! chunks, extended VLRs, a chunk table the whole-file read would not use) and every error
+//! fails it: the caller then reads the whole file, whose read gives the cloud or the error.
+
+use std::io::{BufReader, Cursor, Read, Seek, SeekFrom};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use laz::laszip::{ChunkTable, ChunkTableEntry};
+use laz::record::{
+    LayeredPointRecordDecompressor, RecordDecompressor, SequentialPointRecordDecompressor,
+};
+use laz::{LasZipDecompressor, LazItem, LazVlr};
+use rayon::prelude::*;
+
+use super::{
+    check_header, decode_las_block, finish_las, layered_shape, BoundsGuard, Layout, CHUNK,
+    LAZ_RESERVE_POINTS_PER_BYTE, MAX_LAZ_POINTS_PER_BYTE,
+};
+use crate::cloud::PointCloud;
+use crate::io::assemble::CloudBuilder;
+use crate::io::{ReadError, ReadOptions};
+
+/// A file still arriving: a read past what has arrived waits for it.
+pub trait Arriving: Read + Seek {
+    /// True once every byte has arrived, so reads no longer wait.
+    fn arrived(&self) -> bool;
+}
+
+/// Chunks of more points than this are left to the whole-file read: the parallel decode holds
+/// whole chunks' records.
+const MAX_CHUNK: u64 = 1 << 20;
+
+/// Headers and VLRs larger than this are left to the whole-file read: they are held in memory.
+const MAX_HEAD: u64 = 16 << 20;
+
+/// Points decoded in parallel at a time once the file is whole (the whole-file read's cap).
+const GROUP: u64 = 1 << 21;
+
+/// The compressors whose chunks this read decodes (LASzip's point-wise and layered chunked).
+const POINTWISE_CHUNKED: u16 = 2;
+const LAYERED_CHUNKED: u16 = 3;
+
+/// Reads the LAZ file `source` of `len` bytes while it arrives.
+pub fn read_laz_arriving<R>(
+    source: R,
+    len: u64,
+    name: &str,
+    options: &ReadOptions,
+) -> Result<PointCloud, ReadError>
+where
+    R: Arriving + Send + Sync,
+{
+    read_counted(source, len, name, options).map(|(cloud, _)| cloud)
+}
+
+/// [`read_laz_arriving`], and how many chunks were decoded before the last byte arrived.
+fn read_counted<R>(
+    mut source: R,
+    len: u64,
+    name: &str,
+    options: &ReadOptions,
+) -> Result<(PointCloud, usize), ReadError>
+where
+    R: Arriving + Send + Sync,
+{
+    let start = Start::read(&mut source, len, name)?;
+    let layout = Layout::new(&start.header, options.keep_time);
+    let guard = BoundsGuard::new(&start.header);
+    let count = start.header.number_of_points();
+    // As the whole-file read reserves: a LAZ count is only loosely checked.
+    let reserve = count.min(len.saturating_mul(LAZ_RESERVE_POINTS_PER_BYTE)) as usize;
+    let mut b = CloudBuilder::new("laz", reserve, None, options.keep_time);
+    let mut points = Points {
+        layout: &layout,
+        guard: &guard,
+        written: 0,
+        name,
+    };
+    let (source, spans) = decode_front(source, &start, &mut points, &mut b, len, name)?;
+    let early = spans.len();
+    // The decoder's threads are the pool's: run the rest there.
+    crate::io::pool::install(|| {
+        decode_rest(source, &start, spans, &mut points, &mut b, len, name)
+    })?;
+    let c = b.cloud_mut();
+    let written = points.written;
+    c.xyz.truncate(written);
+    c.scan.truncate(written);
+    c.time.truncate(written);
+    let cloud = finish_las(b, &start.header, count, count, 0, name, "laz")?;
+    Ok((cloud, early))
+}
+
+/// A read refused for a reason of its own: the whole-file read decides.
+fn not_here(name: &str, why: impl std::fmt::Display) -> ReadError {
+    ReadError::named(name, "laz", format!("not decoded as it arrives: {why}"))
+}
+
+/// What the front of the file says.
+struct Start {
+    header: las::Header,
+    vlr: LazVlr,
+    /// Where the point data starts (its first 8 bytes are the chunk table's offset).
+    data: u64,
+    chunk: u64,
+    /// A layered chunk's layer count and raw first point's size.
+    layered: Option<(u64, u64)>,
+}
+
+impl Start {
+    /// Reads the header and VLRs (waiting for them) and refuses what this read does not decode.
+    fn read<R: Read + Seek>(source: &mut R, len: u64, name: &str) -> Result<Start, ReadError> {
+        let io = |e: std::io::Error| ReadError::io(name, e);
+        let raw = las::raw::Header::read_from(&mut *source)
+            .map_err(|e| ReadError::at(name, "laz", e.to_string(), "byte 0"))?;
+        if raw.point_data_record_format & 0xC0 == 0 {
+            return Err(not_here(name, "the points are not compressed"));
+        }
+        // Extended VLRs lie after the points: the header is known only at the end.
+        if raw.evlr.is_some() {
+            return Err(not_here(name, "extended VLRs"));
+        }
+        let data = u64::from(raw.offset_to_point_data);
+        if data > len.min(MAX_HEAD) {
+            return Err(not_here(name, format!("the points start at byte {data}")));
+        }
+        let mut head = vec![0; data as usize];
+        source.seek(SeekFrom::Start(0)).map_err(io)?;
+        source.read_exact(&mut head).map_err(io)?;
+        // The header as the whole-file read's `las` reader parses it (which at the end must
+        // parse the whole file to this same header).
+        let header = las::Header::new(Cursor::new(head))
+            .map_err(|e| ReadError::named(name, "laz", e.to_string()))?;
+        let vlr = header
+            .laz_vlr()
+            .map_err(|e| ReadError::named(name, "laz", e.to_string()))?;
+        let compressor = header
+            .vlrs()
+            .iter()
+            .find(|v| las::laz::is_laszip_vlr(v))
+            .and_then(|v| v.data.get(..2))
+            .map_or(0, |c| u16::from_le_bytes([c[0], c[1]]));
+        let items: Vec<(u16, u16)> = vlr
+            .items()
+            .iter()
+            .map(|i: &LazItem| (u16::from(i.item_type()), i.size()))
+            .collect();
+        let record: u64 = items.iter().map(|&(_, size)| u64::from(size)).sum();
+        let versions_ok = match compressor {
+            POINTWISE_CHUNKED => vlr.items().iter().all(|i| matches!(i.version(), 1 | 2)),
+            LAYERED_CHUNKED => vlr.items().iter().all(|i| matches!(i.version(), 3 | 4)),
+            _ => false,
+        };
+        let chunk = u64::from(vlr.chunk_size());
+        let layered = layered_shape(&items);
+        let refusal = if !versions_ok || items.is_empty() {
+            Some(format!("compressor {compressor} with its items"))
+        } else if vlr.uses_variable_size_chunks() || chunk == 0 || chunk > MAX_CHUNK {
+            Some(format!("chunks of {chunk} points"))
+        } else if record != u64::from(header.point_format().len()) {
+            Some(format!("records of {record} bytes"))
+        } else if compressor == LAYERED_CHUNKED && layered.is_none() {
+            Some("layered chunks of unknown items".into())
+        } else if header.number_of_points() > len.saturating_mul(MAX_LAZ_POINTS_PER_BYTE) {
+            Some(format!("{} points", header.number_of_points()))
+        } else {
+            None
+        };
+        if let Some(why) = refusal {
+            return Err(not_here(name, why));
+        }
+        Ok(Start {
+            header,
+            vlr,
+            data,
+            chunk,
+            layered: layered.filter(|_| compressor == LAYERED_CHUNKED),
+        })
+    }
+}
+
+/// Decoded records becoming the cloud's points.
+struct Points<'a> {
+    layout: &'a Layout,
+    guard: &'a BoundsGuard,
+    written: usize,
+    name: &'a str,
+}
+
+impl Points<'_> {
+    /// Appends whole records, decoded on `parts` threads; a point outside the header's bounds
+    /// fails the read, as in the whole-file read of a LAZ.
+    fn push(&mut self, b: &mut CloudBuilder, recs: &[u8], parts: usize) -> Result<(), ReadError> {
+        let n = recs.len() / self.layout.size;
+        room(b, self.written + n, self.layout.time.is_some());
+        let (kept, outside) =
+            decode_las_block(b, self.layout, self.guard, recs, self.written, parts)
+                .map_err(|why| ReadError::named(self.name, "laz", why))?;
+        if outside > 0 {
+            return Err(not_here(
+                self.name,
+                "points outside the header's bounding box",
+            ));
+        }
+        self.written += kept;
+        Ok(())
+    }
+}
+
+/// Makes the cloud's arrays `n` long, growing by a quarter at least, as `CloudBuilder::push`
+/// grows, so they never double.
+fn room(b: &mut CloudBuilder, n: usize, time: bool) {
+    let c = b.cloud_mut();
+    if c.xyz.capacity() < n {
+        let len = c.xyz.len();
+        c.xyz.reserve_exact((n - len).max(len / 4).max(1 << 16));
+    }
+    let cap = c.xyz.capacity();
+    c.scan.reserve_exact(cap - c.scan.len());
+    c.xyz.resize(n, [0.0; 3]);
+    c.scan.resize(n, 0);
+    if time {
+        c.time.reserve_exact(cap - c.time.len());
+        c.time.resize(n, 0.0);
+    }
+}
+
+/// The point data read front to back with no seeking: the sequential decoder, denied the
+/// chunk table, reads on from the start of the data. Counts the bytes it took.
+struct Front<R> {
+    buf: BufReader<R>,
+    at: u64,
+}
+
+impl<R: Read> Read for Front<R> {
+    fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.buf.read(out)?;
+        self.at += n as u64;
+        Ok(n)
+    }
+}
+
+impl<R> Seek for Front<R> {
+    fn seek(&mut self, _: SeekFrom) -> std::io::Result<u64> {
+        Err(std::io::Error::new(
+            std::io::ErrorKind::Unsupported,
+            "read front to back",
+        ))
+    }
+}
+
+impl<R: Read + Seek> Front<R> {
+    /// Reads `out` at byte `at` of the file, leaving the reading where it was.
+    fn peek(&mut self, at: u64, out: &mut [u8]) -> std::io::Result<()> {
+        let inner = self.buf.get_mut();
+        let back = inner.stream_position()?;
+        inner.seek(SeekFrom::Start(at))?;
+        inner.read_exact(out)?;
+        inner.seek(SeekFrom::Start(back))?;
+        Ok(())
+    }
+}
+
+/// Decodes whole chunks front to back while bytes are still arriving, never the last chunk the
+/// points need (it may be short, and is decoded as the table says). Returns the source and the
+/// bytes each decoded chunk took.
+fn decode_front<R>(
+    mut source: R,
+    start: &Start,
+    points: &mut Points<'_>,
+    b: &mut CloudBuilder,
+    len: u64,
+    name: &str,
+) -> Result<(R, Vec<u64>), ReadError>
+where
+    R: Arriving + Send + Sync,
+{
+    let io = |e: std::io::Error| ReadError::io(name, e);
+    let decoder = |e: laz::LasZipError| ReadError::named(name, "laz", e.to_string());
+    let needed = start.header.number_of_points().div_ceil(start.chunk);
+    let mut spans = Vec::new();
+    if needed < 2 || source.arrived() {
+        return Ok((source, spans));
+    }
+    source.seek(SeekFrom::Start(start.data)).map_err(io)?;
+    let front = Front {
+        buf: BufReader::with_capacity(1 << 16, source),
+        at: start.data,
+    };
+    let mut dec = LasZipDecompressor::new(front, start.vlr.clone()).map_err(decoder)?;
+    let size = points.layout.size;
+    let mut raw = Vec::new();
+    while (spans.len() as u64) + 1 < needed && !dec.get().buf.get_ref().arrived() {
+        let from = dec.get().at;
+        if let Some((layers, first)) = start.layered {
+            check_layered_chunk(dec.get_mut(), from, layers, first, len, name)?;
+        }
+        let mut left = start.chunk;
+        while left > 0 {
+            let n = left.min(CHUNK);
+            raw.resize(n as usize * size, 0);
+            // The decoder asserts on some damaged chunks.
+            let decoded = catch_unwind(AssertUnwindSafe(|| dec.decompress_many(&mut raw)));
+            match decoded {
+                Ok(Ok(())) => {}
+                Ok(Err(e)) => return Err(io(e)),
+                Err(_) => return Err(not_here(name, "the decoder failed")),
+            }
+            points.push(b, &raw, 1)?;
+            left -= n;
+        }
+        spans.push(dec.get().at - from);
+    }
+    Ok((dec.into_inner().buf.into_inner(), spans))
+}
+
+/// A layered chunk declares its layers' sizes, and the decoder allocates them before reading:
+/// each must fit in the file (as `check_chunk_table` checks the whole file's).
+fn check_layered_chunk<R: Read + Seek>(
+    front: &mut Front<R>,
+    from: u64,
+    layers: u64,
+    first: u64,
+    len: u64,
+    name: &str,
+) -> Result<(), ReadError> {
+    let sizes_at = from + first;
+    let mut buf = vec![0u8; 4 + 4 * layers as usize];
+    if sizes_at + buf.len() as u64 > len {
+        return Err(not_here(name, "a chunk ends inside its header"));
+    }
+    front
+        .peek(sizes_at, &mut buf)
+        .map_err(|e| ReadError::io(name, e))?;
+    let words = buf
+        .chunks_exact(4)
+        .map(|w| u64::from(u32::from_le_bytes([w[0], w[1], w[2], w[3]])));
+    let end = words
+        .skip(1)
+        .fold(sizes_at + buf.len() as u64, u64::saturating_add);
+    if end > len {
+        return Err(not_here(name, "a chunk's layers end past the file"));
+    }
+    Ok(())
+}
+
+/// Once every byte is in: the whole-file read's checks, then the chunks after the `spans.len()`
+/// decoded ones, in parallel from the chunk table.
+fn decode_rest<R>(
+    mut source: R,
+    start: &Start,
+    spans: Vec<u64>,
+    points: &mut Points<'_>,
+    b: &mut CloudBuilder,
+    len: u64,
+    name: &str,
+) -> Result<(), ReadError>
+where
+    R: Arriving + Send + Sync,
+{
+    let io = |e: std::io::Error| ReadError::io(name, e);
+    let decoder = |e: laz::LasZipError| ReadError::named(name, "laz", e.to_string());
+    // The whole-file read decodes in parallel only with a sound table; else it goes on
+    // serially, and so had better do it itself.
+    source.seek(SeekFrom::Start(0)).map_err(io)?;
+    let plan = check_header(&mut source, len, name)?;
+    if plan.laz_chunk.is_none() {
+        return Err(not_here(name, "no chunk table to decode in parallel from"));
+    }
+    source.seek(SeekFrom::Start(0)).map_err(io)?;
+    let header =
+        las::Header::new(&mut source).map_err(|e| ReadError::named(name, "laz", e.to_string()))?;
+    if header != start.header {
+        return Err(not_here(name, "the header changed"));
+    }
+    // As the parallel decoder reads it, from the start of the point data.
+    let table = ChunkTable::read_from(&mut source, &start.vlr).map_err(decoder)?;
+    let entries = table.as_ref();
+    let before_last = |i: usize| i + 1 < entries.len();
+    if !spans
+        .iter()
+        .enumerate()
+        .all(|(i, &s)| before_last(i) && entries[i].byte_count == s)
+    {
+        return Err(not_here(
+            name,
+            "the chunks decoded do not end where the chunk table says",
+        ));
+    }
+    let count = start.header.number_of_points();
+    let size = points.layout.size;
+    let mut done = spans.len() as u64 * start.chunk;
+    let mut at = start.data + 8 + spans.iter().sum::<u64>();
+    let mut next = spans.len();
+    let threads = crate::io::pool::threads();
+    // A few chunks a thread, as the whole-file read asks for.
+    let per_group = (4 * threads).min((GROUP / start.chunk).max(1) as usize);
+    let (mut packed, mut raw) = (Vec::new(), Vec::new());
+    while done < count {
+        let needed = (count - done).div_ceil(start.chunk) as usize;
+        let group =
+            &entries[next.min(entries.len())..(next + needed.min(per_group)).min(entries.len())];
+        if group.is_empty() {
+            return Err(not_here(name, "the chunk table ends before the points"));
+        }
+        let bytes = group.iter().map(|e| e.byte_count).sum::<u64>();
+        if at.saturating_add(bytes) > len {
+            return Err(not_here(name, "the chunks end past the file"));
+        }
+        packed.resize(bytes as usize, 0);
+        source.seek(SeekFrom::Start(at)).map_err(io)?;
+        source.read_exact(&mut packed).map_err(io)?;
+        let last = next + group.len() == entries.len();
+        // The decoder asserts on some damaged chunks.
+        let got = catch_unwind(AssertUnwindSafe(|| {
+            decode_chunks(&packed, group, last, &start.vlr, size, &mut raw)
+        }))
+        .map_err(|_| not_here(name, "the decoder failed"))?
+        .map_err(io)?;
+        // Only the table's last chunk may come short; the loop then finds no more chunks.
+        let take = got.min(count - done);
+        points.push(b, &raw[..take as usize * size], threads)?;
+        done += take;
+        at += bytes;
+        next += group.len();
+    }
+    Ok(())
+}
+
+/// Decodes the chunks `packed` holds, described by `group`, in parallel into `raw`; the table's
+/// `last` chunk is decoded until its bytes end, as the parallel reader decodes it. Returns the
+/// points decoded (only the last chunk may come short).
+fn decode_chunks(
+    packed: &[u8],
+    group: &[ChunkTableEntry],
+    last: bool,
+    vlr: &LazVlr,
+    size: usize,
+    raw: &mut Vec<u8>,
+) -> std::io::Result<u64> {
+    let points: u64 = group.iter().map(|e| e.point_count).sum();
+    raw.resize(points as usize * size, 0);
+    let mut jobs = Vec::with_capacity(group.len());
+    let (mut input, mut output) = (packed, raw.as_mut_slice());
+    for (i, e) in group.iter().enumerate() {
+        let (chunk, rest) = input.split_at(e.byte_count as usize);
+        let (out, more) = std::mem::take(&mut output).split_at_mut(e.point_count as usize * size);
+        jobs.push((chunk, out, last && i + 1 == group.len()));
+        (input, output) = (rest, more);
+    }
+    let short = jobs
+        .into_par_iter()
+        .map(|(chunk, out, until_end)| {
+            let mut dec = chunk_decoder(vlr, Cursor::new(chunk))?;
+            if until_end {
+                let n = dec.decompress_until_end_of_file(out)?;
+                Ok((out.len() - n) / size)
+            } else {
+                dec.decompress_many(out).map(|_| 0)
+            }
+        })
+        .collect::<std::io::Result<Vec<usize>>>()?;
+    Ok(points - short.iter().sum::<usize>() as u64)
+}
+
+/// A decoder of one chunk's records held in memory.
+type ChunkDecoder<'a> = Box<dyn RecordDecompressor<Cursor<&'a [u8]>> + Send + Sync + 'a>;
+
+/// A record decompressor for one chunk, as the `laz` crate makes it for the items' version.
+fn chunk_decoder<'a>(vlr: &LazVlr, chunk: Cursor<&'a [u8]>) -> std::io::Result<ChunkDecoder<'a>> {
+    let mut dec: ChunkDecoder<'a> = match vlr.items().first().map(LazItem::version) {
+        Some(1 | 2) => Box::new(SequentialPointRecordDecompressor::new(chunk)),
+        _ => Box::new(LayeredPointRecordDecompressor::new(chunk)),
+    };
+    dec.set_fields_from(vlr.items())
+        .map_err(std::io::Error::other)?;
+    Ok(dec)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::{Arc, Condvar, Mutex};
+
+    /// A file arriving in pieces from another thread: reads wait for their bytes.
+    struct Trickle {
+        bytes: Arc<Vec<u8>>,
+        arrived: Arc<(Mutex<usize>, Condvar)>,
+        position: u64,
+    }
+
+    impl Read for Trickle {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            let len = self.bytes.len();
+            let at = self.position as usize;
+            if buf.is_empty() || at >= len {
+                return Ok(0);
+            }
+            let (lock, more) = &*self.arrived;
+            let guard = lock.lock().unwrap();
+            let arrived = *more.wait_while(guard, |n| *n <= at).unwrap();
+            let n = (arrived - at).min(buf.len());
+            buf[..n].copy_from_slice(&self.bytes[at..at + n]);
+            self.position += n as u64;
+            Ok(n)
+        }
+    }
+
+    impl Seek for Trickle {
+        fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
+            self.position = match pos {
+                SeekFrom::Start(p) => p,
+                SeekFrom::End(d) => (self.bytes.len() as u64).saturating_add_signed(d),
+                SeekFrom::Current(d) => self.position.saturating_add_signed(d),
+            };
+            Ok(self.position)
+        }
+    }
+
+    impl Arriving for Trickle {
+        fn arrived(&self) -> bool {
+            *self.arrived.0.lock().unwrap() >= self.bytes.len()
+        }
+    }
+
+    /// How the bytes come: all at once, in small pieces, or half first and the rest later.
+    #[derive(Clone, Copy, Debug)]
+    enum Pace {
+        AtOnce,
+        Slow,
+        HalfThenRest,
+    }
+
+    /// Reads `bytes` while another thread hands them over at `pace`, in pieces of random sizes.
+    fn read_arriving(
+        bytes: &[u8],
+        pace: Pace,
+        seed: u64,
+    ) -> Result<(PointCloud, usize), ReadError> {
+        let bytes = Arc::new(bytes.to_vec());
+        let arrived = Arc::new((Mutex::new(0usize), Condvar::new()));
+        let len = bytes.len();
+        let feeder = {
+            let arrived = arrived.clone();
+            std::thread::spawn(move || {
+                let give = |n: usize| {
+                    let (lock, more) = &*arrived;
+                    *lock.lock().unwrap() = n;
+                    more.notify_all();
+                };
+                let mut state = seed | 1;
+                let mut random = |max: u64| {
+                    state ^= state << 13;
+                    state ^= state >> 7;
+                    state ^= state << 17;
+                    1 + (state % max) as usize
+                };
+                match pace {
+                    Pace::AtOnce => give(len),
+                    Pace::Slow => {
+                        let mut n = 0;
+                        while n < len {
+                            n = (n + random(8_192)).min(len);
+                            give(n);
+                            std::thread::sleep(std::time::Duration::from_millis(1));
+                        }
+                    }
+                    Pace::HalfThenRest => {
+                        let mut n = 0;
+                        while n < len / 2 {
+                            n = (n + random(65_536)).min(len / 2);
+                            give(n);
+                        }
+                        std::thread::sleep(std::time::Duration::from_millis(300));
+                        give(len);
+                    }
+                }
+            })
+        };
+        if matches!(pace, Pace::AtOnce) {
+            // Wait until it all came, so nothing is decoded front to back.
+            feeder.join().unwrap();
+        }
+        let source = Trickle {
+            bytes,
+            arrived,
+            position: 0,
+        };
+        let read = read_counted(source, len as u64, "t.laz", &ReadOptions::default());
+        read.and_then(|(cloud, early)| {
+            let cloud = crate::io::finish(cloud, "t.laz", &ReadOptions::default())?;
+            Ok((cloud, early))
+        })
+    }
+
+    /// The whole file's cloud, as the worker's read of the stored upload gives it.
+    fn whole(bytes: &[u8]) -> Result<PointCloud, ReadError> {
+        crate::io::read_cloud_from(
+            Cursor::new(bytes.to_vec()),
+            "t.laz",
+            &ReadOptions::default(),
+        )
+    }
+
+    /// A cloud of `n` points in runs of scans, with times.
+    fn cloud(n: usize) -> PointCloud {
+        let mut c = PointCloud {
+            origin: [500_000.0, 5_400_000.0, 0.0],
+            scan_ids: vec![4, 9, 2],
+            ..Default::default()
+        };
+        for i in 0..n {
+            let f = i as f32;
+            c.xyz
+                .push([f * 0.001, (f * 0.37).sin() * 20.0, (i % 300) as f32 * 0.01]);
+            c.scan.push(((i / 7_000) % 3) as u16);
+            c.time.push(i as f64 * 1e-3);
+        }
+        c
+    }
+
+    /// LAZ of point format 1 (point-wise chunks, 50 000 points each) as the exporter writes it.
+    fn laz_bytes(n: usize) -> Vec<u8> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.laz");
+        crate::io::export::write_las(&path, &cloud(n), true).unwrap();
+        std::fs::read(&path).unwrap()
+    }
+
+    /// LAZ of point format 6 (layered chunks), LAS 1.4.
+    fn layered_bytes(n: usize) -> Vec<u8> {
+        let c = cloud(n);
+        let mut builder = las::Builder::from((1, 4));
+        builder.point_format = las::point::Format::new(6).unwrap();
+        builder.point_format.is_compressed = true;
+        let t = |offset: f64| las::Transform {
+            scale: 0.001,
+            offset,
+        };
+        builder.transforms = las::Vector {
+            x: t(c.origin[0]),
+            y: t(c.origin[1]),
+            z: t(c.origin[2]),
+        };
+        let header = builder.into_header().unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.laz");
+        {
+            let file = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
+            let mut writer = las::Writer::new(file, header).unwrap();
+            for (i, p) in c.xyz.iter().enumerate() {
+                writer
+                    .write_point(las::Point {
+                        x: c.origin[0] + f64::from(p[0]),
+                        y: c.origin[1] + f64::from(p[1]),
+                        z: c.origin[2] + f64::from(p[2]),
+                        point_source_id: c.scan_ids[usize::from(c.scan[i])] as u16,
+                        gps_time: Some(c.time[i]),
+                        return_number: 1,
+                        number_of_returns: 1,
+                        ..Default::default()
+                    })
+                    .unwrap();
+            }
+            writer.close().unwrap();
+        }
+        std::fs::read(&path).unwrap()
+    }
+
+    /// Two reads gave the same cloud, bit for bit.
+    fn assert_same(a: &PointCloud, b: &PointCloud) {
+        let bits = |c: &PointCloud| -> Vec<[u32; 3]> {
+            c.xyz.iter().map(|p| p.map(f32::to_bits)).collect()
+        };
+        assert!(bits(a) == bits(b), "points differ");
+        assert_eq!(a.scan, b.scan);
+        assert_eq!(a.scan_ids, b.scan_ids);
+        assert_eq!(a.time.len(), b.time.len());
+        assert!(a
+            .time
+            .iter()
+            .zip(&b.time)
+            .all(|(x, y)| x.to_bits() == y.to_bits()));
+        assert_eq!(a.origin, b.origin);
+        assert_eq!(a.source, b.source);
+        assert_eq!(a.crs, b.crs);
+    }
+
+    #[test]
+    fn laz_read_as_it_arrives_is_the_whole_files_cloud() {
+        // Seven chunks, the last of 7 points; five whole chunks; layered chunks.
+        let files = [
+            ("format 1", laz_bytes(300_007), 7),
+            ("whole chunks", laz_bytes(250_000), 5),
+            ("format 6", layered_bytes(160_001), 4),
+        ];
+        for (what, bytes, chunks) in files {
+            let stored = whole(&bytes).unwrap();
+            assert!(stored.source.details.contains("point format"), "{what}");
+            for (k, pace) in [Pace::AtOnce, Pace::Slow, Pace::HalfThenRest]
+                .into_iter()
+                .enumerate()
+            {
+                let (early, front) = read_arriving(&bytes, pace, 7 + k as u64)
+                    .unwrap_or_else(|e| panic!("{what}, {pace:?}: {e}"));
+                assert_same(&early, &stored);
+                // Never the last chunk the points need: the table says how it ends.
+                assert!(front < chunks, "{what}, {pace:?}");
+                match pace {
+                    Pace::AtOnce => assert_eq!(front, 0, "{what}"),
+                    Pace::Slow | Pace::HalfThenRest => assert!(front > 0, "{what}, {pace:?}"),
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_damaged_laz_read_as_it_arrives_fails_or_gives_the_whole_files_cloud() {
+        let bytes = laz_bytes(300_007);
+        let len = bytes.len();
+        let data = u32::from_le_bytes(bytes[96..100].try_into().unwrap()) as usize;
+        let table = u64::from_le_bytes(bytes[data..data + 8].try_into().unwrap()) as usize;
+        assert!(table > len / 2 && table < len, "the chunk table's offset");
+        let mut cases: Vec<(&str, Vec<u8>)> = vec![
+            ("cut in the points", bytes[..len / 2].to_vec()),
+            ("cut in the table", bytes[..len - 3].to_vec()),
+        ];
+        for at in [table + 8, table + 9, len - 2] {
+            let mut damaged = bytes.clone();
+            damaged[at] ^= 0x5a;
+            cases.push(("a damaged chunk table", damaged));
+        }
+        for at in [data + 18, len / 3, table - 5] {
+            let mut damaged = bytes.clone();
+            damaged[at] ^= 0xff;
+            cases.push(("a damaged chunk", damaged));
+        }
+        let mut offset = bytes.clone();
+        offset[data..data + 8].copy_from_slice(&0i64.to_le_bytes());
+        cases.push(("no table offset", offset));
+        for (what, bytes) in &cases {
+            for pace in [Pace::AtOnce, Pace::Slow] {
+                let early = read_arriving(bytes, pace, 3);
+                match (early, whole(bytes)) {
+                    (Ok((early, _)), Ok(stored)) => assert_same(&early, &stored),
+                    (Ok(_), Err(e)) => {
+                        panic!("{what}, {pace:?}: read early, but the file fails: {e}")
+                    }
+                    (Err(_), _) => {}
+                }
+            }
+        }
+        // A cut file fails early, as it fails whole.
+        for (what, bytes) in &cases[..2] {
+            assert!(whole(bytes).is_err(), "{what}");
+            assert!(read_arriving(bytes, Pace::Slow, 5).is_err(), "{what}");
+        }
+    }
+}
