@@ -307,10 +307,10 @@ mod tests {
 
     #[test]
     fn the_exit_table_names_the_first_edge_from_right_to_left() {
-        for m in 0..8usize {
+        for (m, &exit) in EXIT.iter().enumerate() {
             let side = [m & 1 != 0, m & 2 != 0, m & 4 != 0];
             let first = (0..3).find(|&i| !side[i] && side[(i + 1) % 3]);
-            assert_eq!(first.unwrap_or(NO_EXIT), EXIT[m] as usize, "sides {side:?}");
+            assert_eq!(first.unwrap_or(NO_EXIT), exit as usize, "sides {side:?}");
         }
         // All on one side: the line misses the triangle.
         assert_eq!(EXIT[0] as usize, NO_EXIT);
