@@ -25,6 +25,15 @@ const CHUNK: u64 = 64 * 1024;
 /// Uncompressed LAS is decoded in groups of this many batches per thread.
 const GROUP_PER_THREAD: usize = 4;
 
+/// The most points a parallel LAZ decode takes at a time (a few chunks per thread), however
+/// large a damaged header says a chunk is.
+const MAX_PARALLEL_BATCH: u64 = 1 << 21;
+
+/// LASzip's chunked compressors, whose chunks decode independently: point-wise, and layered
+/// (point formats 6 to 10).
+const POINTWISE_CHUNKED: u16 = 2;
+const LAYERED_CHUNKED: u16 = 3;
+
 /// No LAZ file holds more points per byte than this; a header that claims more is corrupt.
 const MAX_LAZ_POINTS_PER_BYTE: u64 = 64;
 
@@ -499,7 +508,7 @@ impl HeaderCheck {
             // Capped: a damaged header's huge chunk size must not size the buffers.
             Some(chunk) if parallel => chunk
                 .saturating_mul(4 * super::pool::threads() as u64)
-                .min(1 << 21),
+                .min(MAX_PARALLEL_BATCH),
             _ => CHUNK,
         }
     }
@@ -581,7 +590,7 @@ fn check_header<R: Read + Seek>(
         let variable = matches!(&laszip, Some((_, 0 | u32::MAX, _)));
         let table = check_chunk_table(source, start, len, points, variable, name)?;
         // Only the chunked compressors (1 is point-wise, 2 and 3 chunked) decode in parallel.
-        if let Some((2 | 3, size, _)) = &laszip {
+        if let Some((POINTWISE_CHUNKED | LAYERED_CHUNKED, size, _)) = &laszip {
             if table {
                 laz_chunk = Some(match *size {
                     0 | u32::MAX => 50_000,
@@ -779,9 +788,6 @@ fn check_chunk_table<R: Read + Seek>(
         .all(|e| e.point_count <= points.max(1) && e.byte_count <= len);
     Ok(sane && bytes <= table.saturating_sub(start))
 }
-
-/// The LASzip compressor of point formats 6 to 10.
-const LAYERED_CHUNKED: u16 = 3;
 
 /// The compressor, chunk size and item list (type, size) of a LAZ file's LASzip VLR; `None`
 /// when there is no readable such VLR (the decoder then says so).

@@ -28,7 +28,8 @@ use rayon::prelude::*;
 
 use super::{
     check_header, decode_las_block, finish_las, layered_shape, BoundsGuard, Layout, CHUNK,
-    LAZ_RESERVE_POINTS_PER_BYTE, MAX_LAZ_POINTS_PER_BYTE,
+    LAYERED_CHUNKED, LAZ_RESERVE_POINTS_PER_BYTE, MAX_LAZ_POINTS_PER_BYTE, MAX_PARALLEL_BATCH,
+    POINTWISE_CHUNKED,
 };
 use crate::cloud::PointCloud;
 use crate::io::assemble::CloudBuilder;
@@ -46,13 +47,6 @@ const MAX_CHUNK: u64 = 1 << 20;
 
 /// Headers and VLRs larger than this are left to the whole-file read: they are held in memory.
 const MAX_HEAD: u64 = 16 << 20;
-
-/// Points decoded in parallel at a time once the file is whole (the whole-file read's cap).
-const GROUP: u64 = 1 << 21;
-
-/// The compressors whose chunks this read decodes (LASzip's point-wise and layered chunked).
-const POINTWISE_CHUNKED: u16 = 2;
-const LAYERED_CHUNKED: u16 = 3;
 
 /// Reads the LAZ file `source` of `len` bytes while it arrives.
 pub fn read_laz_arriving<R>(
@@ -408,7 +402,7 @@ where
     let mut next = spans.len();
     let threads = crate::io::pool::threads();
     // A few chunks a thread, as the whole-file read asks for.
-    let per_group = (4 * threads).min((GROUP / start.chunk).max(1) as usize);
+    let per_group = (4 * threads).min((MAX_PARALLEL_BATCH / start.chunk).max(1) as usize);
     let (mut packed, mut raw) = (Vec::new(), Vec::new());
     while done < count {
         let needed = (count - done).div_ceil(start.chunk) as usize;
