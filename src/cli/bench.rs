@@ -331,19 +331,19 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
             let file = dir.join(format.file_name());
             time_cat(&file, 1)?;
             for early in [false, true] {
-                let mut best: Option<(f64, f64, u64)> = None;
+                let mut best: Option<super::bench_upload::Timed> = None;
                 for _ in 0..args.repeat {
                     let t = super::bench_upload::time_upload(&file, early, args.upload_rate)?;
-                    if best.is_none_or(|b| t.1 < b.1) {
+                    if best.is_none_or(|b| t.done_ms < b.done_ms) {
                         best = Some(t);
                     }
                 }
-                let (upload_ms, done_ms, read_ms) = best.expect("at least one run");
+                let t = best.expect("at least one run");
                 eprintln!(
                     "bench: upload {} points of {}, read early {early}: last byte to succeeded {:.0} ms",
                     upload_size,
                     format.name(),
-                    done_ms
+                    t.done_ms
                 );
                 upload_runs.push(super::bench_upload::UploadRun {
                     points: upload_size,
@@ -351,9 +351,10 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
                     early,
                     file_bytes: file_len(&file)?,
                     rate_mb_s: args.upload_rate,
-                    upload_ms,
-                    last_byte_to_done_ms: done_ms,
-                    read_ms,
+                    upload_ms: t.upload_ms,
+                    last_byte_to_done_ms: t.done_ms,
+                    read_ms: t.read_ms,
+                    plan_ms: t.plan_ms,
                 });
             }
         }
@@ -810,12 +811,12 @@ fn markdown(r: &Report) -> String {
     if !r.upload_runs.is_empty() {
         let _ = writeln!(
             s,
-            "\n| format | points | read early | file MB | rate MB/s | upload ms | last byte → succeeded ms | job's read ms |\n|---|---|---|---|---|---|---|---|"
+            "\n| format | points | read early | file MB | rate MB/s | upload ms | last byte → succeeded ms | job's read ms | job's plan ms |\n|---|---|---|---|---|---|---|---|---|"
         );
         for x in &r.upload_runs {
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {:.0} | {} | {:.0} | {:.0} | {} |",
+                "| {} | {} | {} | {:.0} | {} | {:.0} | {:.0} | {} | {} |",
                 x.format,
                 count(x.points),
                 if x.early { "yes" } else { "no" },
@@ -828,6 +829,7 @@ fn markdown(r: &Report) -> String {
                 x.upload_ms,
                 x.last_byte_to_done_ms,
                 x.read_ms,
+                x.plan_ms,
             );
         }
     }

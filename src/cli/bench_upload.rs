@@ -34,6 +34,18 @@ pub struct UploadRun {
     pub last_byte_to_done_ms: f64,
     /// The job's own `read` time (after the last byte when read early).
     pub read_ms: u64,
+    /// The job's whole plan (its `total`, read included); the rest of `last_byte_to_done_ms`
+    /// is the service's: storing the upload, queueing, writing the results.
+    pub plan_ms: u64,
+}
+
+/// What one timed upload measured.
+#[derive(Debug, Clone, Copy)]
+pub struct Timed {
+    pub upload_ms: f64,
+    pub done_ms: f64,
+    pub read_ms: u64,
+    pub plan_ms: u64,
 }
 
 /// The real pipeline with early reads turned off.
@@ -50,7 +62,7 @@ impl Pipeline for StoredOnly {
 }
 
 /// Uploads `file` to a fresh service and times it (see the module's doc).
-pub fn time_upload(file: &Path, early: bool, rate_mb_s: f64) -> anyhow::Result<(f64, f64, u64)> {
+pub fn time_upload(file: &Path, early: bool, rate_mb_s: f64) -> anyhow::Result<Timed> {
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()?;
@@ -79,7 +91,7 @@ async fn upload_and_wait(
     addr: std::net::SocketAddr,
     file: &Path,
     rate_mb_s: f64,
-) -> anyhow::Result<(f64, f64, u64)> {
+) -> anyhow::Result<Timed> {
     let len = std::fs::metadata(file)?.len();
     let mut source = tokio::fs::File::open(file).await?;
     let mut socket = TcpStream::connect(addr).await?;
@@ -123,8 +135,13 @@ async fn upload_and_wait(
         }
     };
     let done_ms = last_byte.elapsed().as_secs_f64() * 1e3;
-    let read_ms = job["timings_ms"]["read"].as_u64().unwrap_or(0);
-    Ok((upload_ms, done_ms, read_ms))
+    let ms = |stage: &str| job["timings_ms"][stage].as_u64().unwrap_or(0);
+    Ok(Timed {
+        upload_ms,
+        done_ms,
+        read_ms: ms("read"),
+        plan_ms: ms("total"),
+    })
 }
 
 async fn get_job(addr: std::net::SocketAddr, id: &str) -> anyhow::Result<serde_json::Value> {
