@@ -372,6 +372,19 @@ impl Arriving for Growing {
         let state = self.growth.state();
         state.written >= self.total || !matches!(state.end, End::Open)
     }
+
+    fn available(&self) -> u64 {
+        self.growth.state().written
+    }
+
+    fn another(&self) -> std::io::Result<Self> {
+        Ok(Growing {
+            file: self.file.try_clone()?,
+            growth: self.growth.clone(),
+            total: self.total,
+            position: 0,
+        })
+    }
 }
 
 impl Seek for Growing {

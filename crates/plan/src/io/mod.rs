@@ -371,6 +371,19 @@ impl<R: Arriving> Arriving for Checked<R> {
     fn arrived(&self) -> bool {
         self.inner.arrived()
     }
+
+    fn available(&self) -> u64 {
+        self.inner.available()
+    }
+
+    fn another(&self) -> std::io::Result<Self> {
+        Ok(Checked {
+            inner: self.inner.another()?,
+            cancel: self.cancel.clone(),
+            bytes: self.bytes.clone(),
+            position: 0,
+        })
+    }
 }
 
 impl<R: Seek> Seek for Checked<R> {

@@ -1,9 +1,11 @@
 //! LAZ decoded while its file arrives (an upload being received), so that little is left to
 //! decode when the last byte lands.
 //!
-//! The header and VLRs come first. Then the chunks are decoded front to back on one thread as
-//! their bytes arrive: LASzip's sequential decoder needs no chunk table for fixed-size chunks.
-//! Once every byte is in, the file gets the whole-file read's checks (`check_header`, the header
+//! The header and VLRs come first. Then the chunks are decoded front to back as their bytes
+//! arrive: a fixed-size chunk's decoder needs no chunk table, and where it ends the next chunk
+//! begins. When bytes arrive faster than one thread decodes them, a second lane guesses where a
+//! chunk starts further on and decodes from there; its chunks count only once the first lane
+//! reaches exactly that byte. Once every byte is in, the file gets the whole-file read's checks (`check_header`, the header
 //! as the `las` crate parses it, the chunk table) and the chunks left are decoded in parallel
 //! from the table.
 //!
@@ -18,12 +20,13 @@
 
 use std::io::{BufReader, Cursor, Read, Seek, SeekFrom};
 use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use laz::laszip::{ChunkTable, ChunkTableEntry};
 use laz::record::{
     LayeredPointRecordDecompressor, RecordDecompressor, SequentialPointRecordDecompressor,
 };
-use laz::{LasZipDecompressor, LazItem, LazVlr};
+use laz::{LazItem, LazVlr};
 use rayon::prelude::*;
 
 use super::{
@@ -39,6 +42,12 @@ use crate::io::{ReadError, ReadOptions};
 pub trait Arriving: Read + Seek {
     /// True once every byte has arrived, so reads no longer wait.
     fn arrived(&self) -> bool;
+    /// How many bytes have arrived so far.
+    fn available(&self) -> u64;
+    /// Another handle on the same file with a position of its own, for a second decoding lane.
+    fn another(&self) -> std::io::Result<Self>
+    where
+        Self: Sized;
 }
 
 /// Chunks of more points than this are left to the whole-file read: the parallel decode holds
@@ -47,6 +56,9 @@ const MAX_CHUNK: u64 = 1 << 20;
 
 /// Headers and VLRs larger than this are left to the whole-file read: they are held in memory.
 const MAX_HEAD: u64 = 16 << 20;
+
+/// The most bytes of records the second lane holds before the first lane has reached them.
+const MAX_HELD: usize = 64 << 20;
 
 /// Reads the LAZ file `source` of `len` bytes while it arrives.
 pub fn read_laz_arriving<R>(
@@ -61,13 +73,23 @@ where
     read_counted(source, len, name, options).map(|(cloud, _)| cloud)
 }
 
-/// [`read_laz_arriving`], and how many chunks were decoded before the last byte arrived.
+/// The chunks decoded before the last byte arrived, and how many of them the second lane
+/// decoded.
+#[derive(Debug, Clone, Copy)]
+// Only the tests look: they check how the lanes shared the work.
+#[cfg_attr(not(test), allow(dead_code))]
+struct Early {
+    chunks: usize,
+    ahead: usize,
+}
+
+/// [`read_laz_arriving`], and what it decoded before the last byte arrived.
 fn read_counted<R>(
     mut source: R,
     len: u64,
     name: &str,
     options: &ReadOptions,
-) -> Result<(PointCloud, usize), ReadError>
+) -> Result<(PointCloud, Early), ReadError>
 where
     R: Arriving + Send + Sync,
 {
@@ -84,8 +106,11 @@ where
         written: 0,
         name,
     };
-    let (source, spans) = decode_front(source, &start, &mut points, &mut b, len, name)?;
-    let early = spans.len();
+    let (source, spans, ahead) = decode_front(source, &start, &mut points, &mut b, len, name)?;
+    let early = Early {
+        chunks: spans.len(),
+        ahead,
+    };
     // The decoder's threads are the pool's: run the rest there.
     crate::io::pool::install(|| {
         decode_rest(source, &start, spans, &mut points, &mut b, len, name)
@@ -270,8 +295,14 @@ impl<R: Read + Seek> Front<R> {
 }
 
 /// Decodes whole chunks front to back while bytes are still arriving, never the last chunk the
-/// points need (it may be short, and is decoded as the table says). Returns the source and the
-/// bytes each decoded chunk took.
+/// points need (it may be short, and is decoded as the table says). Returns the source, the
+/// bytes each decoded chunk took, and how many of those chunks the second lane decoded.
+///
+/// When more has arrived than one lane has decoded, a second lane starts where a chunk seems to
+/// start halfway along what is waiting (see [`chunk_start_after`]) and decodes on from there,
+/// holding its records, while the first lane decodes up to it. Its chunks count only when the
+/// first lane's last chunk ends exactly where the second lane began: the second lane then
+/// decoded true chunks, and the points go in in file order. Otherwise its work is dropped.
 fn decode_front<R>(
     mut source: R,
     start: &Start,
@@ -279,49 +310,299 @@ fn decode_front<R>(
     b: &mut CloudBuilder,
     len: u64,
     name: &str,
-) -> Result<(R, Vec<u64>), ReadError>
+) -> Result<(R, Vec<u64>, usize), ReadError>
 where
     R: Arriving + Send + Sync,
 {
     let io = |e: std::io::Error| ReadError::io(name, e);
-    let decoder = |e: laz::LasZipError| ReadError::named(name, "laz", e.to_string());
     let needed = start.header.number_of_points().div_ceil(start.chunk);
     let mut spans = Vec::new();
+    let mut second_lane = 0;
     if needed < 2 || source.arrived() {
-        return Ok((source, spans));
+        return Ok((source, spans, second_lane));
     }
-    source.seek(SeekFrom::Start(start.data)).map_err(io)?;
-    let front = Front {
-        buf: BufReader::with_capacity(1 << 16, source),
-        at: start.data,
-    };
-    let mut dec = LasZipDecompressor::new(front, start.vlr.clone()).map_err(decoder)?;
+    // Past the chunk table's offset, the first chunk.
+    let mut at = start.data + 8;
+    source.seek(SeekFrom::Start(at)).map_err(io)?;
+    let mut lane = Lane::new(source, at, &start.vlr).map_err(io)?;
     let size = points.layout.size;
     let mut raw = Vec::new();
-    while (spans.len() as u64) + 1 < needed && !dec.get().buf.get_ref().arrived() {
-        let from = dec.get().at;
-        if let Some((layers, first)) = start.layered {
-            check_layered_chunk(dec.get_mut(), from, layers, first, len, name)?;
+    // Only point-wise chunks open with a record as it is, and only real bounds tell one.
+    let second = start.layered.is_none() && points.guard.active;
+    while (spans.len() as u64) + 1 < needed && !lane.arrived() {
+        let waiting = lane.available().saturating_sub(at);
+        let typical = spans.iter().sum::<u64>() / (spans.len() as u64).max(1);
+        let guess = match second && typical > 0 && waiting >= 4 * typical {
+            true => lane
+                .find_start(
+                    at + waiting / 2,
+                    2 * typical,
+                    &start.vlr,
+                    points.layout,
+                    points.guard,
+                )
+                .map_err(io)?,
+            false => None,
+        };
+        let Some(s) = guess else {
+            spans.push(front_chunk(
+                &mut lane, start, points, b, &mut raw, len, name,
+            )?);
+            at = lane.at();
+            continue;
+        };
+        let other = lane.another().map_err(io)?;
+        let stop = AtomicBool::new(false);
+        let (first, held) = std::thread::scope(|scope| {
+            let behind = scope.spawn(|| decode_ahead(other, s, start, size, &stop));
+            let mut first = Ok(());
+            while lane.at() < s && (spans.len() as u64) + 1 < needed {
+                match front_chunk(&mut lane, start, points, b, &mut raw, len, name) {
+                    Ok(bytes) => spans.push(bytes),
+                    Err(e) => {
+                        first = Err(e);
+                        break;
+                    }
+                }
+            }
+            stop.store(true, Ordering::Relaxed);
+            (first, behind.join().unwrap_or_default())
+        });
+        first?;
+        at = lane.at();
+        if at != s {
+            continue;
         }
-        let mut left = start.chunk;
+        for (bytes, recs) in held {
+            if (spans.len() as u64) + 1 >= needed {
+                break;
+            }
+            points.push(b, &recs, 1)?;
+            spans.push(bytes);
+            at += bytes;
+            second_lane += 1;
+        }
+        lane = lane.jump(at, &start.vlr).map_err(io)?;
+    }
+    Ok((lane.into_source(), spans, second_lane))
+}
+
+/// The first lane's next chunk, its points pushed as they are decoded; a layered chunk's
+/// declared sizes are checked first.
+fn front_chunk<'a, R: Arriving + Send + Sync + 'a>(
+    lane: &mut Lane<'a, R>,
+    start: &Start,
+    points: &mut Points<'_>,
+    b: &mut CloudBuilder,
+    raw: &mut Vec<u8>,
+    len: u64,
+    name: &str,
+) -> Result<u64, ReadError> {
+    if let Some((layers, first)) = start.layered {
+        let at = lane.at();
+        check_layered_chunk(lane.dec.get_mut(), at, layers, first, len, name)?;
+    }
+    lane.chunk(start.chunk, &start.vlr, |r| points.push(b, r, 1), raw)
+        .map_err(|e| e.into_error(name))
+}
+
+/// Why a lane's chunk failed.
+enum ChunkError {
+    Io(std::io::Error),
+    Panicked,
+    Points(ReadError),
+}
+
+impl ChunkError {
+    fn into_error(self, name: &str) -> ReadError {
+        match self {
+            ChunkError::Io(e) => ReadError::io(name, e),
+            // The decoder asserts on some damaged chunks.
+            ChunkError::Panicked => not_here(name, "the decoder failed"),
+            ChunkError::Points(e) => e,
+        }
+    }
+}
+
+/// One lane's decoding: the chunks from a chunk's start on, front to back, with no seeking.
+struct Lane<'a, R> {
+    dec: Box<dyn RecordDecompressor<Front<R>> + Send + Sync + 'a>,
+}
+
+impl<'a, R: Arriving + Send + Sync + 'a> Lane<'a, R> {
+    /// A lane from byte `at` of `source`, which stands there.
+    fn new(source: R, at: u64, vlr: &LazVlr) -> std::io::Result<Lane<'a, R>> {
+        let front = Front {
+            buf: BufReader::with_capacity(1 << 16, source),
+            at,
+        };
+        Ok(Lane {
+            dec: chunk_decoder(vlr, front)?,
+        })
+    }
+
+    /// Where the next chunk starts.
+    fn at(&self) -> u64 {
+        self.dec.get().at
+    }
+
+    fn arrived(&self) -> bool {
+        self.dec.get().buf.get_ref().arrived()
+    }
+
+    fn available(&self) -> u64 {
+        self.dec.get().buf.get_ref().available()
+    }
+
+    fn another(&self) -> std::io::Result<R> {
+        self.dec.get().buf.get_ref().another()
+    }
+
+    /// The lane going on from byte `at`, a chunk's start.
+    fn jump(self, at: u64, vlr: &LazVlr) -> std::io::Result<Lane<'a, R>> {
+        if at == self.at() {
+            return Ok(self);
+        }
+        let mut source = self.into_source();
+        source.seek(SeekFrom::Start(at))?;
+        Lane::new(source, at, vlr)
+    }
+
+    fn into_source(self) -> R {
+        self.dec.box_into_inner().buf.into_inner()
+    }
+
+    /// Decodes the next chunk of `chunk` records, in pieces of at most [`CHUNK`] handed to
+    /// `take`; returns the bytes the chunk took.
+    fn chunk(
+        &mut self,
+        chunk: u64,
+        vlr: &LazVlr,
+        mut take: impl FnMut(&[u8]) -> Result<(), ReadError>,
+        raw: &mut Vec<u8>,
+    ) -> Result<u64, ChunkError> {
+        let from = self.at();
+        self.dec.reset();
+        self.dec
+            .set_fields_from(vlr.items())
+            .map_err(|e| ChunkError::Io(std::io::Error::other(e)))?;
+        let size = self.dec.record_size();
+        let mut left = chunk;
         while left > 0 {
             let n = left.min(CHUNK);
             raw.resize(n as usize * size, 0);
-            // The decoder asserts on some damaged chunks.
-            let decoded = catch_unwind(AssertUnwindSafe(|| dec.decompress_many(&mut raw)));
-            match decoded {
+            let dec = &mut self.dec;
+            match catch_unwind(AssertUnwindSafe(|| dec.decompress_many(raw))) {
                 Ok(Ok(())) => {}
-                Ok(Err(e)) => return Err(io(e)),
-                Err(_) => return Err(not_here(name, "the decoder failed")),
+                Ok(Err(e)) => return Err(ChunkError::Io(e)),
+                Err(_) => return Err(ChunkError::Panicked),
             }
-            points.push(b, &raw, 1)?;
+            take(raw).map_err(ChunkError::Points)?;
             left -= n;
         }
-        spans.push(dec.get().at - from);
+        Ok(self.at() - from)
     }
-    Ok((dec.into_inner().buf.into_inner(), spans))
+
+    /// A byte at or after `from`, within `window`, where a chunk seems to start (see
+    /// [`chunk_start_after`]). Only bytes that have arrived are looked at.
+    fn find_start(
+        &self,
+        from: u64,
+        window: u64,
+        vlr: &LazVlr,
+        layout: &Layout,
+        guard: &BoundsGuard,
+    ) -> std::io::Result<Option<u64>> {
+        let end = (from + window + PROBE_BYTES).min(self.available());
+        if end <= from + layout.size as u64 {
+            return Ok(None);
+        }
+        let mut bytes = vec![0; (end - from) as usize];
+        let mut peek = self.another()?;
+        peek.seek(SeekFrom::Start(from))?;
+        peek.read_exact(&mut bytes)?;
+        let last = (window as usize).min(bytes.len());
+        Ok(chunk_start_after(&bytes, last, vlr, layout, guard).map(|k| from + k as u64))
+    }
 }
 
+/// Records a likely chunk start must decode to, all within the header's bounds.
+const PROBE: usize = 64;
+
+/// Bytes read past a window so that a start near its end can be probed.
+const PROBE_BYTES: u64 = 16 << 10;
+
+/// The first offset before `last` in `bytes` where a point-wise chunk seems to start: its
+/// first record, which such a chunk holds as it is, is a finite point within `guard`'s bounds,
+/// and so are the next records decoded from there, while the bytes last. A coordinate of
+/// compressed bytes lands within real bounds about once in 10^5 tries, a whole point about
+/// once in 10^15, but a record's bytes shifted by a coordinate are often a point too, hence
+/// the records decoded after it. A wrong guess only costs the second lane's work.
+fn chunk_start_after(
+    bytes: &[u8],
+    last: usize,
+    vlr: &LazVlr,
+    layout: &Layout,
+    guard: &BoundsGuard,
+) -> Option<usize> {
+    let size = layout.size;
+    let inside = |rec: &[u8]| {
+        let p = layout.point(rec);
+        super::finite(&p) && guard.contains(p)
+    };
+    let sound = |k: usize| {
+        let mut recs = vec![0u8; PROBE * size];
+        let decoded = catch_unwind(AssertUnwindSafe(|| {
+            let mut dec = chunk_decoder(vlr, Cursor::new(&bytes[k..]))?;
+            dec.decompress_many(&mut recs)
+        }));
+        matches!(decoded, Ok(Ok(()))) && recs.chunks_exact(size).all(inside)
+    };
+    (0..last.min(bytes.len().checked_sub(size)? + 1))
+        .find(|&k| inside(&bytes[k..k + size]) && sound(k))
+}
+
+/// The second lane: chunks from byte `s` of `source` on, their records held, until `stop` is
+/// set (checked between chunks) or a chunk fails (a wrong start gives garbage or an error).
+/// Returns each whole chunk's bytes and records, in order.
+fn decode_ahead<R: Arriving + Send + Sync>(
+    mut source: R,
+    s: u64,
+    start: &Start,
+    size: usize,
+    stop: &AtomicBool,
+) -> Vec<(u64, Vec<u8>)> {
+    let mut held = Vec::new();
+    if source.seek(SeekFrom::Start(s)).is_err() {
+        return held;
+    }
+    let Ok(mut lane) = Lane::new(source, s, &start.vlr) else {
+        return held;
+    };
+    let mut total = 0usize;
+    // At least one chunk, however soon the first lane is done: the lane is worth its start.
+    while held.is_empty() || !stop.load(Ordering::Relaxed) && total < MAX_HELD {
+        let mut recs = Vec::with_capacity(start.chunk as usize * size);
+        let mut raw = Vec::new();
+        let got = lane.chunk(
+            start.chunk,
+            &start.vlr,
+            |piece| {
+                recs.extend_from_slice(piece);
+                Ok(())
+            },
+            &mut raw,
+        );
+        match got {
+            Ok(bytes) => {
+                total += recs.len();
+                held.push((bytes, recs));
+            }
+            Err(_) => break,
+        }
+    }
+    held
+}
 /// A layered chunk declares its layers' sizes, and the decoder allocates them before reading:
 /// each must fit in the file (as `check_chunk_table` checks the whole file's).
 fn check_layered_chunk<R: Read + Seek>(
@@ -471,15 +752,19 @@ fn decode_chunks(
     Ok(points - short.iter().sum::<usize>() as u64)
 }
 
-/// A decoder of one chunk's records held in memory.
-type ChunkDecoder<'a> = Box<dyn RecordDecompressor<Cursor<&'a [u8]>> + Send + Sync + 'a>;
-
 /// A record decompressor for one chunk, as the `laz` crate makes it for the items' version.
-fn chunk_decoder<'a>(vlr: &LazVlr, chunk: Cursor<&'a [u8]>) -> std::io::Result<ChunkDecoder<'a>> {
-    let mut dec: ChunkDecoder<'a> = match vlr.items().first().map(LazItem::version) {
-        Some(1 | 2) => Box::new(SequentialPointRecordDecompressor::new(chunk)),
-        _ => Box::new(LayeredPointRecordDecompressor::new(chunk)),
-    };
+fn chunk_decoder<'a, S>(
+    vlr: &LazVlr,
+    source: S,
+) -> std::io::Result<Box<dyn RecordDecompressor<S> + Send + Sync + 'a>>
+where
+    S: Read + Seek + Send + Sync + 'a,
+{
+    let mut dec: Box<dyn RecordDecompressor<S> + Send + Sync + 'a> =
+        match vlr.items().first().map(LazItem::version) {
+            Some(1 | 2) => Box::new(SequentialPointRecordDecompressor::new(source)),
+            _ => Box::new(LayeredPointRecordDecompressor::new(source)),
+        };
     dec.set_fields_from(vlr.items())
         .map_err(std::io::Error::other)?;
     Ok(dec)
@@ -529,6 +814,18 @@ mod tests {
         fn arrived(&self) -> bool {
             *self.arrived.0.lock().unwrap() >= self.bytes.len()
         }
+
+        fn available(&self) -> u64 {
+            *self.arrived.0.lock().unwrap() as u64
+        }
+
+        fn another(&self) -> std::io::Result<Self> {
+            Ok(Trickle {
+                bytes: self.bytes.clone(),
+                arrived: self.arrived.clone(),
+                position: 0,
+            })
+        }
     }
 
     /// How the bytes come: all at once, in small pieces, or half first and the rest later.
@@ -544,7 +841,7 @@ mod tests {
         bytes: &[u8],
         pace: Pace,
         seed: u64,
-    ) -> Result<(PointCloud, usize), ReadError> {
+    ) -> Result<(PointCloud, Early), ReadError> {
         let bytes = Arc::new(bytes.to_vec());
         let arrived = Arc::new((Mutex::new(0usize), Condvar::new()));
         let len = bytes.len();
@@ -713,10 +1010,12 @@ mod tests {
                     .unwrap_or_else(|e| panic!("{what}, {pace:?}: {e}"));
                 assert_same(&early, &stored);
                 // Never the last chunk the points need: the table says how it ends.
-                assert!(front < chunks, "{what}, {pace:?}");
+                assert!(front.chunks < chunks, "{what}, {pace:?}");
                 match pace {
-                    Pace::AtOnce => assert_eq!(front, 0, "{what}"),
-                    Pace::Slow | Pace::HalfThenRest => assert!(front > 0, "{what}, {pace:?}"),
+                    Pace::AtOnce => assert_eq!(front.chunks, 0, "{what}"),
+                    Pace::Slow | Pace::HalfThenRest => {
+                        assert!(front.chunks > 0, "{what}, {pace:?}")
+                    }
                 }
             }
         }
@@ -763,5 +1062,55 @@ mod tests {
             assert!(whole(bytes).is_err(), "{what}");
             assert!(read_arriving(bytes, Pace::Slow, 5).is_err(), "{what}");
         }
+    }
+
+    #[test]
+    fn a_second_lane_decodes_ahead_and_changes_nothing() {
+        // 21 chunks, the last of 3 points; half arrive at once, so a second lane has work.
+        let bytes = laz_bytes(1_000_003);
+        let stored = whole(&bytes).unwrap();
+        let (early, front) = read_arriving(&bytes, Pace::HalfThenRest, 11).unwrap();
+        assert_same(&early, &stored);
+        assert!(front.ahead > 0 && front.chunks < 21, "{front:?}");
+    }
+
+    #[test]
+    fn chunk_starts_are_found_where_the_chunk_table_puts_them() {
+        let bytes = laz_bytes(300_007);
+        let start = Start::read(&mut Cursor::new(&bytes), bytes.len() as u64, "t.laz").unwrap();
+        let mut source = Cursor::new(&bytes);
+        source.seek(SeekFrom::Start(start.data)).unwrap();
+        let table = ChunkTable::read_from(&mut source, &start.vlr).unwrap();
+        let (layout, guard) = (
+            Layout::new(&start.header, false),
+            BoundsGuard::new(&start.header),
+        );
+        let mut at = start.data + 8;
+        let starts: Vec<u64> = table
+            .as_ref()
+            .iter()
+            .map(|e| {
+                at += e.byte_count;
+                at - e.byte_count
+            })
+            .collect();
+        assert_eq!(starts.len(), 7);
+        // The last chunk, of 7 points, is too short to probe; the second lane never needs it.
+        for w in starts[..6].windows(2) {
+            // From just past a chunk's start, and from its middle: the next chunk's start, and
+            // none of the bytes between, however many of them look like a point.
+            for from in [w[0] + 1, (w[0] + w[1]) / 2] {
+                let last = (w[1] - from) as usize + 1;
+                let found =
+                    chunk_start_after(&bytes[from as usize..], last, &start.vlr, &layout, &guard);
+                assert_eq!(found.map(|k| from + k as u64), Some(w[1]), "from {from}");
+            }
+        }
+        // The first chunk's own start is found from there.
+        let first = &bytes[starts[0] as usize..];
+        assert_eq!(
+            chunk_start_after(first, 1, &start.vlr, &layout, &guard),
+            Some(0)
+        );
     }
 }
