@@ -1,7 +1,7 @@
 //! The wall tests of one grid cell's neighbourhood (§3.1), in the paper's order, and its PCA
 //! normal.
 
-use super::SamplesParams;
+use super::{rank, SamplesParams};
 use crate::geom::P2;
 use crate::stories::Story;
 
@@ -268,7 +268,7 @@ impl Tests {
         lo: P2,
         cell: f64,
         min_points: usize,
-        within: &mut Vec<f32>,
+        within: &mut Vec<i32>,
         wide: impl FnOnce() -> Option<(P2, f64)>,
     ) -> Result<Wall, Reject> {
         if pts.len() < min_points.max(2) {
@@ -407,7 +407,7 @@ fn likely_filled(bins: usize, p: f64, cap: usize) -> u32 {
 /// settles most cells next to a wall, which fail; for the rest the median is a known rank
 /// among the points within the cell's span, a third or so of them, so only those are selected
 /// from. `within` is scratch.
-fn median_in_cell(pts: &[[f32; 3]], lo: P2, cell: f64, within: &mut Vec<f32>) -> Option<P2> {
+fn median_in_cell(pts: &[[f32; 3]], lo: P2, cell: f64, within: &mut Vec<i32>) -> Option<P2> {
     let mid = pts.len() / 2;
     let mut below = [0usize; 2];
     let mut above = [0usize; 2];
@@ -426,14 +426,18 @@ fn median_in_cell(pts: &[[f32; 3]], lo: P2, cell: f64, within: &mut Vec<f32>) ->
     let mut m = [0.0; 2];
     for (k, slot) in m.iter_mut().enumerate() {
         within.clear();
-        within.extend(pts.iter().map(|p| p[k]).filter(|&v| {
-            let v = v as f64;
-            v >= lo[k] && v < lo[k] + cell
-        }));
+        within.extend(
+            pts.iter()
+                .map(|p| p[k])
+                .filter(|&v| {
+                    let v = v as f64;
+                    v >= lo[k] && v < lo[k] + cell
+                })
+                .map(rank::key),
+        );
         // Fewer than `mid + 1` points lie below and fewer than `len - mid` beyond, so the
         // rank falls within.
-        let (_, v, _) = within.select_nth_unstable_by(mid - below[k], f32::total_cmp);
-        *slot = *v as f64;
+        *slot = rank::nth(within, mid - below[k]) as f64;
     }
     Some(m)
 }
@@ -444,7 +448,7 @@ fn median_in_cell(pts: &[[f32; 3]], lo: P2, cell: f64, within: &mut Vec<f32>) ->
 /// wall's sparsely seen face next to its dense one, or a voxel column beside a denser wall at
 /// a junction, would otherwise give no sample; a wall whose noise straddles a cell edge
 /// (the two medians close) gives its sample in one cell only.
-fn own_face(pts: &[[f32; 3]], lo: P2, cell: f64, within: &mut Vec<f32>) -> Option<P2> {
+fn own_face(pts: &[[f32; 3]], lo: P2, cell: f64, within: &mut Vec<i32>) -> Option<P2> {
     let inside = |p: &[f32; 3]| {
         (0..2).all(|k| {
             let v = p[k] as f64;
@@ -457,9 +461,9 @@ fn own_face(pts: &[[f32; 3]], lo: P2, cell: f64, within: &mut Vec<f32>) -> Optio
     }
     let mut median = |keep: &dyn Fn(&[f32; 3]) -> bool, k: usize| {
         within.clear();
-        within.extend(pts.iter().filter(|p| keep(p)).map(|p| p[k]));
+        within.extend(pts.iter().filter(|p| keep(p)).map(|p| rank::key(p[k])));
         let mid = within.len() / 2;
-        *within.select_nth_unstable_by(mid, f32::total_cmp).1 as f64
+        rank::nth(within, mid) as f64
     };
     let mine = [median(&inside, 0), median(&inside, 1)];
     let all = [median(&|_| true, 0), median(&|_| true, 1)];

@@ -179,11 +179,14 @@ impl Grid {
         // thread holds its own copy of this closure, so they stay in registers.
         let (ox, oy, inv) = (frame.origin[0], frame.origin[1], 1.0 / frame.cell);
         let (last_i, last_j) = (frame.nx - 1, frame.ny - 1);
-        let (z_min, z_max) = (story.z_min, story.z_max);
+        let (z_min, z_max) = (
+            least_at_or_above(story.z_min),
+            least_at_or_above(story.z_max),
+        );
         let (is, js) = ((range.i.start, range.i.end), (range.j.start, range.j.end));
         let key = move |p: &[f32; 3]| -> Option<usize> {
-            // As `in_story`.
-            if !((p[2] as f64) >= z_min && (p[2] as f64) < z_max) {
+            // As `in_story`, on bounds that need no widening of z.
+            if !(p[2] >= z_min && p[2] < z_max) {
                 return None;
             }
             // Through i64: the same values for these non-negative numbers, and a cheaper cast.
@@ -230,8 +233,11 @@ impl Grid {
                         };
                         let s = &mut sums[c];
                         s.n += 1;
-                        s.zmin = s.zmin.min(p[2]);
-                        s.zmax = s.zmax.max(p[2]);
+                        // z is a number (it is in the story): one comparison each, not
+                        // `min`'s care for NaN.
+                        let z = p[2];
+                        s.zmin = if z < s.zmin { z } else { s.zmin };
+                        s.zmax = if z > s.zmax { z } else { s.zmax };
                         s.slice += u32::from(p[2] >= slice[0] && p[2] < slice[1]);
                         let b = bin_code(p[2]);
                         if b != super::cell::NO_BIN {
@@ -459,6 +465,25 @@ impl Grid {
         let (xs, ys) = self.range.block_around(i, j);
         ys.flat_map(move |b| xs.clone().map(move |a| (a, b)))
     }
+}
+
+/// The least `f32` at or above `v`: for every `f32` z, `z as f64 >= v` exactly when
+/// `z >= least_at_or_above(v)` (both false for NaN), and `z as f64 < v` exactly when
+/// `z < least_at_or_above(v)`.
+fn least_at_or_above(v: f64) -> f32 {
+    if v.is_nan() {
+        return f32::NAN;
+    }
+    // The nearest f32, then a step up when it lies below `v`, or down while the one below
+    // still does not.
+    let mut c = v as f32;
+    if (c as f64) < v {
+        c = c.next_up();
+    }
+    while c > f32::NEG_INFINITY && (c.next_down() as f64) >= v {
+        c = c.next_down();
+    }
+    c
 }
 
 /// Cuts `spans` into consecutive pieces of about `len` points each.
@@ -755,6 +780,50 @@ mod tests {
 
     fn in_spans_len(spans: &[Range<usize>]) -> usize {
         spans.iter().map(|r| r.len()).sum()
+    }
+
+    #[test]
+    fn the_least_f32_at_or_above_compares_as_the_f64_does() {
+        let vs = [
+            0.0,
+            -0.0,
+            0.1,
+            -0.1,
+            0.5,
+            2.7,
+            -1.75,
+            1e-40,
+            // Halfway between two f32s, and just either side of that.
+            1.0 + f64::from(f32::EPSILON) / 2.0,
+            1.0 + f64::from(f32::EPSILON) / 2.0 + 1e-12,
+            1.0 + f64::from(f32::EPSILON) / 2.0 - 1e-12,
+            f64::from(f32::MAX) * 1.5,
+            -f64::from(f32::MAX) * 1.5,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        for v in vs {
+            let c = least_at_or_above(v);
+            assert!(c as f64 >= v, "{v}: {c}");
+            for z in [
+                c.next_down().next_down(),
+                c.next_down(),
+                c,
+                c.next_up(),
+                0.0,
+                -0.0,
+            ] {
+                assert_eq!(z as f64 >= v, z >= c, "{v}: {z} against {c}");
+                assert_eq!((z as f64) < v, z < c, "{v}: {z} against {c}");
+            }
+        }
+        // Exact values are their own bound. 0.1 and -0.1 lie between two f32s: the nearest
+        // one is above 0.1 but below -0.1, where the next one up is the bound.
+        assert_eq!(least_at_or_above(0.5), 0.5);
+        assert_eq!(least_at_or_above(0.1), 0.1f32);
+        assert_eq!(least_at_or_above(-0.1), (-0.1f32).next_up());
+        assert!(least_at_or_above(f64::NAN).is_nan());
+        assert!(!(f32::NAN >= least_at_or_above(0.0)));
     }
 
     #[test]
