@@ -6,6 +6,7 @@
 //! before any neighbourhood is gathered; the rest run the tests of `cell` in the paper's
 //! order. With scanner poses, `views` orients the normals and drops far samples.
 
+mod bound32;
 mod bounds;
 mod cell;
 mod coverage;
