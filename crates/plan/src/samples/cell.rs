@@ -427,16 +427,13 @@ fn median_in_cell(pts: &[[f32; 3]], lo: P2, cell: f64, within: &mut Vec<i32>) ->
     }
     let mut m = [0.0; 2];
     for (k, slot) in m.iter_mut().enumerate() {
-        within.clear();
-        within.extend(
-            pts.iter()
-                .map(|p| p[k])
-                .filter(|&v| v >= from[k] && v < to[k])
-                .map(rank::key),
+        let keys = rank::keys_where(
+            within,
+            pts.iter().map(|p| (p[k], p[k] >= from[k] && p[k] < to[k])),
         );
         // Fewer than `mid + 1` points lie below and fewer than `len - mid` beyond, so the
         // rank falls within.
-        *slot = rank::nth(within, mid - below[k]) as f64;
+        *slot = rank::nth(keys, mid - below[k]) as f64;
     }
     Some(m)
 }
@@ -467,10 +464,9 @@ fn own_face(pts: &[[f32; 3]], lo: P2, cell: f64, within: &mut Vec<i32>) -> Optio
         return None;
     }
     let mut median = |keep: &dyn Fn(&[f32; 3]) -> bool, k: usize| {
-        within.clear();
-        within.extend(pts.iter().filter(|p| keep(p)).map(|p| rank::key(p[k])));
-        let mid = within.len() / 2;
-        rank::nth(within, mid) as f64
+        let keys = rank::keys_where(within, pts.iter().map(|p| (p[k], keep(p))));
+        let mid = keys.len() / 2;
+        rank::nth(keys, mid) as f64
     };
     let mine = [median(&inside, 0), median(&inside, 1)];
     let all = [median(&|_| true, 0), median(&|_| true, 1)];

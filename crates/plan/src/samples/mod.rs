@@ -570,7 +570,8 @@ struct Scratch {
     bins: Vec<u8>,
     slots: Vec<u16>,
     times: Vec<f64>,
-    /// For the median: coordinates within the cell's span, as [`rank::key`]s.
+    /// For the median: coordinates within the cell's span, as [`rank::key`]s (see
+    /// [`rank::keys_where`]).
     within: Vec<i32>,
 }
 

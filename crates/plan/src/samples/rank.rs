@@ -16,6 +16,25 @@ pub(super) fn value(k: i32) -> f32 {
     f32::from_bits((k ^ (((k >> 31) as u32) >> 1) as i32) as u32)
 }
 
+/// The keys of the values of `vals` marked to be kept, in order, in the first entries of
+/// `buf`, which are returned. Each key is written and the next place moved on only for a kept
+/// value, so no branch depends on which values are kept; `buf` only grows, so it is not zeroed
+/// again for every call.
+pub(super) fn keys_where<'a>(
+    buf: &'a mut Vec<i32>,
+    vals: impl ExactSizeIterator<Item = (f32, bool)>,
+) -> &'a mut [i32] {
+    if buf.len() < vals.len() {
+        buf.resize(vals.len(), 0);
+    }
+    let mut at = 0;
+    for (v, keep) in vals {
+        buf[at] = key(v);
+        at += usize::from(keep);
+    }
+    &mut buf[..at]
+}
+
 /// The value of rank `n` (from 0) among the values whose keys are `keys`, in total order;
 /// `keys` is reordered.
 pub(super) fn nth(keys: &mut [i32], n: usize) -> f32 {
@@ -50,6 +69,30 @@ mod tests {
         assert!(key(-0.0) < key(0.0));
         let mut keys: Vec<i32> = [0.0f32, -0.0, 0.0].iter().map(|&v| key(v)).collect();
         assert_eq!(nth(&mut keys, 0).to_bits(), (-0.0f32).to_bits());
+    }
+
+    #[test]
+    fn the_kept_values_keys_come_first_in_order() {
+        let mut buf = vec![7; 2];
+        let vals = [
+            (1.0f32, true),
+            (2.0, false),
+            (-3.0, true),
+            (4.0, false),
+            (5.0, true),
+        ];
+        let keys = keys_where(&mut buf, vals.iter().copied());
+        assert_eq!(keys, &[key(1.0), key(-3.0), key(5.0)]);
+        // A shorter call reuses the buffer without shrinking it.
+        assert_eq!(
+            keys_where(&mut buf, [(0.5f32, false)].into_iter()),
+            &[] as &[i32]
+        );
+        assert_eq!(
+            keys_where(&mut buf, [(0.5f32, true)].into_iter()),
+            &[key(0.5)]
+        );
+        assert_eq!(buf.len(), 5);
     }
 
     #[test]
