@@ -20,10 +20,10 @@ pub(super) fn value(k: i32) -> f32 {
 /// `buf`, which are returned. Each key is written and the next place moved on only for a kept
 /// value, so no branch depends on which values are kept; `buf` only grows, so it is not zeroed
 /// again for every call.
-pub(super) fn keys_where<'a>(
-    buf: &'a mut Vec<i32>,
+pub(super) fn keys_where(
+    buf: &mut Vec<i32>,
     vals: impl ExactSizeIterator<Item = (f32, bool)>,
-) -> &'a mut [i32] {
+) -> &mut [i32] {
     if buf.len() < vals.len() {
         buf.resize(vals.len(), 0);
     }
