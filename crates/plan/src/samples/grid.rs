@@ -121,11 +121,21 @@ impl Default for Summary {
 }
 
 impl Summary {
+    /// Heights are numbers or the empty summary's infinities, never NaN: one comparison each,
+    /// not `min`'s care for NaN.
     #[inline]
     pub fn merge(&mut self, o: &Summary) {
         self.n += o.n;
-        self.zmin = self.zmin.min(o.zmin);
-        self.zmax = self.zmax.max(o.zmax);
+        self.zmin = if o.zmin < self.zmin {
+            o.zmin
+        } else {
+            self.zmin
+        };
+        self.zmax = if o.zmax > self.zmax {
+            o.zmax
+        } else {
+            self.zmax
+        };
         self.mask |= o.mask;
         self.slice += o.slice;
     }
