@@ -1,7 +1,8 @@
 //! The wall tests of one grid cell's neighbourhood (§3.1), in the paper's order, and its PCA
 //! normal.
 
-use super::SamplesParams;
+use super::bound32::least_at_or_above;
+use super::{rank, SamplesParams};
 use crate::geom::P2;
 use crate::stories::Story;
 
@@ -268,7 +269,7 @@ impl Tests {
         lo: P2,
         cell: f64,
         min_points: usize,
-        within: &mut Vec<f32>,
+        within: &mut Vec<i32>,
         wide: impl FnOnce() -> Option<(P2, f64)>,
     ) -> Result<Wall, Reject> {
         if pts.len() < min_points.max(2) {
@@ -375,9 +376,10 @@ impl BinCoder {
 #[inline]
 fn bin_in(z: f32, floor: f64, top: f64, bins: usize) -> Option<u8> {
     let t = (z as f64 - floor) / (top - floor);
+    // Through u8: `t * bins` is at most 32 here, and the narrower cast costs less.
     (0.0..=1.0)
         .contains(&t)
-        .then(|| ((t * bins as f64) as usize).min(bins - 1) as u8)
+        .then(|| ((t * bins as f64) as u8).min(bins as u8 - 1))
 }
 
 /// The probability with which an evenly spread wall must pass the filled-bins tests.
@@ -407,15 +409,15 @@ fn likely_filled(bins: usize, p: f64, cap: usize) -> u32 {
 /// settles most cells next to a wall, which fail; for the rest the median is a known rank
 /// among the points within the cell's span, a third or so of them, so only those are selected
 /// from. `within` is scratch.
-fn median_in_cell(pts: &[[f32; 3]], lo: P2, cell: f64, within: &mut Vec<f32>) -> Option<P2> {
+fn median_in_cell(pts: &[[f32; 3]], lo: P2, cell: f64, within: &mut Vec<i32>) -> Option<P2> {
     let mid = pts.len() / 2;
+    let (from, to) = span32(lo, cell);
     let mut below = [0usize; 2];
     let mut above = [0usize; 2];
     for p in pts {
         for k in 0..2 {
-            let v = p[k] as f64;
-            below[k] += usize::from(v < lo[k]);
-            above[k] += usize::from(v >= lo[k] + cell);
+            below[k] += usize::from(p[k] < from[k]);
+            above[k] += usize::from(p[k] >= to[k]);
         }
     }
     // The median is element `mid` in sorted order: below the cell when `mid + 1` points are,
@@ -425,17 +427,27 @@ fn median_in_cell(pts: &[[f32; 3]], lo: P2, cell: f64, within: &mut Vec<f32>) ->
     }
     let mut m = [0.0; 2];
     for (k, slot) in m.iter_mut().enumerate() {
-        within.clear();
-        within.extend(pts.iter().map(|p| p[k]).filter(|&v| {
-            let v = v as f64;
-            v >= lo[k] && v < lo[k] + cell
-        }));
+        let keys = rank::keys_where(
+            within,
+            pts.iter().map(|p| (p[k], p[k] >= from[k] && p[k] < to[k])),
+        );
         // Fewer than `mid + 1` points lie below and fewer than `len - mid` beyond, so the
         // rank falls within.
-        let (_, v, _) = within.select_nth_unstable_by(mid - below[k], f32::total_cmp);
-        *slot = *v as f64;
+        *slot = rank::nth(keys, mid - below[k]) as f64;
     }
     Some(m)
+}
+
+/// The cell at `lo` as f32 bounds: a coordinate `v` lies at or beyond `lo[k]` (as f64) exactly
+/// when `v >= from[k]`, and at or beyond `lo[k] + cell` exactly when `v >= to[k]`.
+fn span32(lo: P2, cell: f64) -> ([f32; 2], [f32; 2]) {
+    (
+        [least_at_or_above(lo[0]), least_at_or_above(lo[1])],
+        [
+            least_at_or_above(lo[0] + cell),
+            least_at_or_above(lo[1] + cell),
+        ],
+    )
 }
 
 /// The median of the neighbourhood's points within the cell itself, where the median of all
@@ -444,22 +456,17 @@ fn median_in_cell(pts: &[[f32; 3]], lo: P2, cell: f64, within: &mut Vec<f32>) ->
 /// wall's sparsely seen face next to its dense one, or a voxel column beside a denser wall at
 /// a junction, would otherwise give no sample; a wall whose noise straddles a cell edge
 /// (the two medians close) gives its sample in one cell only.
-fn own_face(pts: &[[f32; 3]], lo: P2, cell: f64, within: &mut Vec<f32>) -> Option<P2> {
-    let inside = |p: &[f32; 3]| {
-        (0..2).all(|k| {
-            let v = p[k] as f64;
-            v >= lo[k] && v < lo[k] + cell
-        })
-    };
+fn own_face(pts: &[[f32; 3]], lo: P2, cell: f64, within: &mut Vec<i32>) -> Option<P2> {
+    let (from, to) = span32(lo, cell);
+    let inside = |p: &[f32; 3]| (0..2).all(|k| p[k] >= from[k] && p[k] < to[k]);
     let own = pts.iter().filter(|p| inside(p)).count();
     if own == 0 || own * 4 < pts.len() {
         return None;
     }
     let mut median = |keep: &dyn Fn(&[f32; 3]) -> bool, k: usize| {
-        within.clear();
-        within.extend(pts.iter().filter(|p| keep(p)).map(|p| p[k]));
-        let mid = within.len() / 2;
-        *within.select_nth_unstable_by(mid, f32::total_cmp).1 as f64
+        let keys = rank::keys_where(within, pts.iter().map(|p| (p[k], keep(p))));
+        let mid = keys.len() / 2;
+        rank::nth(keys, mid) as f64
     };
     let mine = [median(&inside, 0), median(&inside, 1)];
     let all = [median(&|_| true, 0), median(&|_| true, 1)];
@@ -586,6 +593,51 @@ mod tests {
         }
         // Both ways were tried.
         assert!(inside > 20 && outside > 20, "{inside} {outside}");
+    }
+
+    #[test]
+    fn the_f32_span_of_a_cell_holds_the_points_the_f64_one_does() {
+        // Corners on the grid of a frame whose origin is not a multiple of the cell.
+        for (lo, cell) in [
+            ([0.0, -0.05], 0.05),
+            ([-3.123, 7.31], 0.05),
+            ([1.0, 2.0], 0.08),
+        ] {
+            let (from, to) = span32(lo, cell);
+            for k in 0..2 {
+                let (a, b) = (lo[k] as f32, (lo[k] + cell) as f32);
+                let near = [a.next_down(), a, a.next_up(), b.next_down(), b, b.next_up()];
+                for v in near {
+                    let w = v as f64;
+                    assert_eq!(v >= from[k], w >= lo[k], "{v} against {lo:?}");
+                    assert_eq!(v >= to[k], w >= lo[k] + cell, "{v} against {lo:?} + {cell}");
+                    assert_eq!(v < from[k], w < lo[k], "{v} against {lo:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_height_bins_are_those_of_the_usize_cast() {
+        let old = |z: f32, floor: f64, top: f64, bins: usize| {
+            let t = (z as f64 - floor) / (top - floor);
+            (0.0..=1.0)
+                .contains(&t)
+                .then(|| ((t * bins as f64) as usize).min(bins - 1) as u8)
+        };
+        for bins in [4, 16, 32] {
+            for (floor, top) in [(0.0, 3.0), (-1.75, 1.35)] {
+                // Every bin edge and the ends, and the f32s either side of them.
+                for e in 0..=bins {
+                    let z = (floor + (top - floor) * e as f64 / bins as f64) as f32;
+                    for z in [z.next_down(), z, z.next_up()] {
+                        assert_eq!(bin_in(z, floor, top, bins), old(z, floor, top, bins));
+                    }
+                }
+            }
+        }
+        assert_eq!(bin_in(3.0, 0.0, 3.0, 16), Some(15));
+        assert_eq!(bin_in(3.0f32.next_up(), 0.0, 3.0, 16), None);
     }
 
     #[test]

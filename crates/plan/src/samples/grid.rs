@@ -13,6 +13,7 @@ use std::ops::Range;
 
 use rayon::prelude::*;
 
+use super::bound32::least_at_or_above;
 use super::bounds::{CellRange, GridFrame};
 use super::cell::Reject;
 use super::SamplesError;
@@ -120,11 +121,21 @@ impl Default for Summary {
 }
 
 impl Summary {
+    /// Heights are numbers or the empty summary's infinities, never NaN: one comparison each,
+    /// not `min`'s care for NaN.
     #[inline]
     pub fn merge(&mut self, o: &Summary) {
         self.n += o.n;
-        self.zmin = self.zmin.min(o.zmin);
-        self.zmax = self.zmax.max(o.zmax);
+        self.zmin = if o.zmin < self.zmin {
+            o.zmin
+        } else {
+            self.zmin
+        };
+        self.zmax = if o.zmax > self.zmax {
+            o.zmax
+        } else {
+            self.zmax
+        };
         self.mask |= o.mask;
         self.slice += o.slice;
     }
@@ -179,11 +190,14 @@ impl Grid {
         // thread holds its own copy of this closure, so they stay in registers.
         let (ox, oy, inv) = (frame.origin[0], frame.origin[1], 1.0 / frame.cell);
         let (last_i, last_j) = (frame.nx - 1, frame.ny - 1);
-        let (z_min, z_max) = (story.z_min, story.z_max);
+        let (z_min, z_max) = (
+            least_at_or_above(story.z_min),
+            least_at_or_above(story.z_max),
+        );
         let (is, js) = ((range.i.start, range.i.end), (range.j.start, range.j.end));
         let key = move |p: &[f32; 3]| -> Option<usize> {
-            // As `in_story`.
-            if !((p[2] as f64) >= z_min && (p[2] as f64) < z_max) {
+            // As `in_story`, on bounds that need no widening of z.
+            if !(p[2] >= z_min && p[2] < z_max) {
                 return None;
             }
             // Through i64: the same values for these non-negative numbers, and a cheaper cast.
@@ -230,8 +244,11 @@ impl Grid {
                         };
                         let s = &mut sums[c];
                         s.n += 1;
-                        s.zmin = s.zmin.min(p[2]);
-                        s.zmax = s.zmax.max(p[2]);
+                        // z is a number (it is in the story): one comparison each, not
+                        // `min`'s care for NaN.
+                        let z = p[2];
+                        s.zmin = if z < s.zmin { z } else { s.zmin };
+                        s.zmax = if z > s.zmax { z } else { s.zmax };
                         s.slice += u32::from(p[2] >= slice[0] && p[2] < slice[1]);
                         let b = bin_code(p[2]);
                         if b != super::cell::NO_BIN {

@@ -6,10 +6,12 @@
 //! before any neighbourhood is gathered; the rest run the tests of `cell` in the paper's
 //! order. With scanner poses, `views` orients the normals and drops far samples.
 
+mod bound32;
 mod bounds;
 mod cell;
 mod coverage;
 pub(crate) mod grid;
+mod rank;
 mod shallow;
 mod spacing;
 mod threshold;
@@ -568,8 +570,9 @@ struct Scratch {
     bins: Vec<u8>,
     slots: Vec<u16>,
     times: Vec<f64>,
-    /// For the median: coordinates within the cell's span.
-    within: Vec<f32>,
+    /// For the median: coordinates within the cell's span, as [`rank::key`]s (see
+    /// [`rank::keys_where`]).
+    within: Vec<i32>,
 }
 
 /// Everything a row scan reads.
@@ -686,10 +689,13 @@ impl Scan<'_> {
         let r2 = cell * cell;
         // About a third of the block's points lie outside the circle, in no pattern: the test
         // decides where the next index goes rather than whether to branch. Room for every
-        // point of the block is made once, however many runs it comes in.
+        // point of the block is made once, however many runs it comes in; `idx` only grows,
+        // so it is not zeroed again for every cell, and its first `at` entries are this one's.
         g.block_runs(i, j, &mut s.runs);
-        s.idx.clear();
-        s.idx.resize(s.runs.iter().map(|r| r.len()).sum(), 0);
+        let room = s.runs.iter().map(|r| r.len()).sum();
+        if s.idx.len() < room {
+            s.idx.resize(room, 0);
+        }
         let mut at = 0;
         for run in s.runs.iter().cloned() {
             for k in run {
@@ -699,18 +705,18 @@ impl Scan<'_> {
                 at += usize::from(dx * dx + dy * dy <= r2);
             }
         }
-        s.idx.truncate(at);
+        let idx = &s.idx[..at];
         s.pts.clear();
-        s.pts.extend(s.idx.iter().map(|&k| g.pts[k as usize]));
+        s.pts.extend(idx.iter().map(|&k| g.pts[k as usize]));
         s.bins.clear();
-        s.bins.extend(s.idx.iter().map(|&k| g.bins[k as usize]));
+        s.bins.extend(idx.iter().map(|&k| g.bins[k as usize]));
         s.slots.clear();
         if !g.slots.is_empty() {
-            s.slots.extend(s.idx.iter().map(|&k| g.slots[k as usize]));
+            s.slots.extend(idx.iter().map(|&k| g.slots[k as usize]));
         }
         s.times.clear();
         if !g.times.is_empty() {
-            s.times.extend(s.idx.iter().map(|&k| g.times[k as usize]));
+            s.times.extend(idx.iter().map(|&k| g.times[k as usize]));
         }
     }
 }
