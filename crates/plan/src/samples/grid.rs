@@ -32,9 +32,8 @@ fn checked_pieces(r: Range<usize>) -> impl Iterator<Item = Range<usize>> {
 }
 
 /// The most cells a story's grid may have (about 200 m × 200 m at 5 cm). Beyond it the cloud
-/// holds far outliers, and the per-cell arrays would waste memory. A cell's index fits in the
-/// low [`CELL_BITS`] of a point's key.
-pub(crate) const MAX_CELLS: usize = (1 << CELL_BITS) - 1;
+/// holds far outliers, and the per-cell arrays would waste memory.
+pub(crate) const MAX_CELLS: usize = (1 << 24) - 1;
 
 /// What a core cell's block summary says before any neighbourhood is gathered.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -46,11 +45,6 @@ pub(super) enum Screen {
     /// The neighbourhood is gathered and tested.
     Candidate,
 }
-
-/// A point's key in the counting pass holds its held cell in these low bits and its height
-/// bin code in the byte above.
-const CELL_BITS: u32 = 24;
-const CELL_MASK: u32 = (1 << CELL_BITS) - 1;
 
 /// What each point brings along into the grid besides its coordinates: whatever tells which
 /// scanner saw it.
@@ -141,10 +135,6 @@ impl Summary {
     }
 }
 
-/// The key of a point outside the story or the held cells. No held cell has it: the cells
-/// number at most [`MAX_CELLS`].
-const NO_KEY: u32 = u32::MAX;
-
 /// A cell left out of the scatter: no output position is this large (a story indexes fewer
 /// than 2^32 - 1 points).
 const SKIP: u32 = u32::MAX;
@@ -208,38 +198,21 @@ impl Grid {
         };
         let cells = range.cells();
 
-        // The counting pass, one part of the spans per thread: every cell's summary, and each
-        // point's key, recorded so the scatter need not find it again. Every key is written
-        // here, so the array starts as zeroed pages that each thread faults in for its part.
+        // The counting pass, one part of the spans per thread: every cell's summary.
         let parts = rayon::current_num_threads().max(1);
         let total: usize = spans.iter().map(|r| r.len()).sum();
         let pieces = split_spans(&spans, total.div_ceil(parts).max(1));
-        let piece_len = |piece: &Vec<Range<usize>>| piece.iter().map(|r| r.len()).sum::<usize>();
-        let mut keys = vec![0u32; total];
-        let mut key_parts = Vec::with_capacity(pieces.len());
-        {
-            let mut rest = &mut keys[..];
-            for piece in &pieces {
-                let (k, r) = rest.split_at_mut(piece_len(piece));
-                key_parts.push(k);
-                rest = r;
-            }
-        }
         let piece_sums = pieces
             .par_iter()
-            .zip(key_parts)
-            .map(|(piece, keys)| {
+            .map(|piece| {
                 let (key, bin_code) = (key, bin_code);
                 let mut sums = vec![Summary::default(); cells];
-                let mut at = 0;
                 for r in piece.iter().cloned().flat_map(checked_pieces) {
                     if cancel.is_stopped() {
                         break;
                     }
-                    let pts = &xyz[r];
-                    for (slot, p) in keys[at..at + pts.len()].iter_mut().zip(pts) {
+                    for p in &xyz[r] {
                         let Some(c) = key(p) else {
-                            *slot = NO_KEY;
                             continue;
                         };
                         let s = &mut sums[c];
@@ -254,10 +227,7 @@ impl Grid {
                         if b != super::cell::NO_BIN {
                             s.mask |= 1 << b;
                         }
-                        // The bin rides along for the scatter.
-                        *slot = c as u32 | u32::from(b) << CELL_BITS;
                     }
-                    at += pts.len();
                 }
                 sums
             })
@@ -348,13 +318,14 @@ impl Grid {
         let mut slots = vec![0u16; if carry == Carry::Slots { n } else { 0 }];
         let mut times = vec![0f64; if carry == Carry::Times { n } else { 0 }];
 
-        // The scatter, a piece per thread: each piece passes over its own points and keys and
-        // writes them, in cloud order, to its own contiguous part of the output.
+        // The scatter, a piece per thread: each piece passes over its own points again, finds
+        // their cells again (cheaper than holding a key a point, which at the grid's peak
+        // would be most of its memory), and writes them, in cloud order, to its own contiguous
+        // part of the output.
         let mut outs = Vec::with_capacity(np);
         {
             let (mut p_rest, mut b_rest, mut s_rest, mut t_rest) =
                 (&mut pts[..], &mut bins[..], &mut slots[..], &mut times[..]);
-            let mut key_rest = &keys[..];
             for (p, piece) in pieces.iter().enumerate() {
                 let len = (start[(p + 1) * cells] - start[p * cells]) as usize;
                 let (pp, pr) = p_rest.split_at_mut(len);
@@ -362,53 +333,48 @@ impl Grid {
                 let (s, sr) = s_rest.split_at_mut(if s_rest.is_empty() { 0 } else { len });
                 let (t, tr) = t_rest.split_at_mut(if t_rest.is_empty() { 0 } else { len });
                 (p_rest, b_rest, s_rest, t_rest) = (pr, br, sr, tr);
-                let (k, kr) = key_rest.split_at(piece_len(piece));
-                key_rest = kr;
-                outs.push((p, piece, k, pp, b, s, t));
+                outs.push((p, piece, pp, b, s, t));
             }
         }
         let needed = &needed;
-        outs.into_par_iter()
-            .for_each(|(piece, spans, keys, p, b, s, t)| {
-                let base = start[piece * cells];
-                // Where each cell's next point goes in the piece's output, or `SKIP` for a cell
-                // whose points no neighbourhood reads: one lookup a point says both.
-                let mut next: Vec<u32> = (0..cells)
-                    .map(|c| {
-                        if needed[c] {
-                            start[piece * cells + c] - base
-                        } else {
-                            SKIP
-                        }
-                    })
-                    .collect();
-                let mut at = 0;
-                for r in spans.iter().cloned().flat_map(checked_pieces) {
-                    if cancel.is_stopped() {
-                        return;
+        outs.into_par_iter().for_each(|(piece, spans, p, b, s, t)| {
+            let (key, bin_code) = (key, bin_code);
+            let base = start[piece * cells];
+            // Where each cell's next point goes in the piece's output, or `SKIP` for a cell
+            // whose points no neighbourhood reads: one lookup a point says both.
+            let mut next: Vec<u32> = (0..cells)
+                .map(|c| {
+                    if needed[c] {
+                        start[piece * cells + c] - base
+                    } else {
+                        SKIP
                     }
-                    for (k, q) in xyz[r.clone()].iter().enumerate() {
-                        let key = keys[at + k];
-                        // `NO_KEY`'s cell lies past every held cell.
-                        let Some(slot) = next.get_mut((key & CELL_MASK) as usize) else {
-                            continue;
-                        };
-                        if *slot == SKIP {
-                            continue;
-                        }
-                        let dst = *slot as usize;
-                        *slot += 1;
-                        p[dst] = *q;
-                        b[dst] = (key >> CELL_BITS) as u8;
-                        match carry {
-                            Carry::Slots => s[dst] = points.scan[r.start + k],
-                            Carry::Times => t[dst] = points.time[r.start + k],
-                            Carry::Nothing => {}
-                        }
-                    }
-                    at += r.len();
+                })
+                .collect();
+            for r in spans.iter().cloned().flat_map(checked_pieces) {
+                if cancel.is_stopped() {
+                    return;
                 }
-            });
+                for (k, q) in xyz[r.clone()].iter().enumerate() {
+                    let Some(c) = key(q) else {
+                        continue;
+                    };
+                    let slot = &mut next[c];
+                    if *slot == SKIP {
+                        continue;
+                    }
+                    let dst = *slot as usize;
+                    *slot += 1;
+                    p[dst] = *q;
+                    b[dst] = bin_code(q[2]);
+                    match carry {
+                        Carry::Slots => s[dst] = points.scan[r.start + k],
+                        Carry::Times => t[dst] = points.time[r.start + k],
+                        Carry::Nothing => {}
+                    }
+                }
+            }
+        });
         cancel.check()?;
         Ok(Grid {
             frame,
