@@ -327,13 +327,21 @@ where
     let mut lane = Lane::new(source, at, &start.vlr).map_err(io)?;
     let size = points.layout.size;
     let mut raw = Vec::new();
-    // Only point-wise chunks open with a record as it is, and only real bounds tell one.
-    let second = start.layered.is_none() && points.guard.active;
+    // A layered chunk says where it ends; a point-wise one opens with a record as it is,
+    // which only real bounds tell from compressed bytes.
+    let second = start.layered.is_some() || points.guard.active;
     while (spans.len() as u64) + 1 < needed && !lane.arrived() {
         let waiting = lane.available().saturating_sub(at);
         let typical = spans.iter().sum::<u64>() / (spans.len() as u64).max(1);
-        let guess = match second && typical > 0 && waiting >= 4 * typical {
-            true => lane
+        let guess = match (
+            second && typical > 0 && waiting >= 4 * typical,
+            start.layered,
+        ) {
+            (false, _) => None,
+            (true, Some((layers, first))) => {
+                lane.hop_layered(at, at + waiting / 2, layers, first, len)
+            }
+            (true, None) => lane
                 .find_start(
                     at + waiting / 2,
                     2 * typical,
@@ -342,7 +350,6 @@ where
                     points.guard,
                 )
                 .map_err(io)?,
-            false => None,
         };
         let Some(s) = guess else {
             spans.push(front_chunk(
@@ -354,7 +361,7 @@ where
         let other = lane.another().map_err(io)?;
         let stop = AtomicBool::new(false);
         let (first, held) = std::thread::scope(|scope| {
-            let behind = scope.spawn(|| decode_ahead(other, s, start, size, &stop));
+            let behind = scope.spawn(|| decode_ahead(other, s, start, size, len, &stop));
             let mut first = Ok(());
             while lane.at() < s && (spans.len() as u64) + 1 < needed {
                 match front_chunk(&mut lane, start, points, b, &mut raw, len, name) {
@@ -503,6 +510,26 @@ impl<'a, R: Arriving + Send + Sync + 'a> Lane<'a, R> {
         Ok(self.at() - from)
     }
 
+    /// The start of the first layered chunk at or past `target`, hopping from the chunk that
+    /// starts at `at` by the sizes each declares, over bytes that have arrived; `None` when a
+    /// chunk's header has not arrived or is unsound (the first lane then meets it itself).
+    fn hop_layered(&self, at: u64, target: u64, layers: u64, first: u64, len: u64) -> Option<u64> {
+        let mut peek = self.another().ok()?;
+        let available = self.available();
+        let mut s = at;
+        while s < target {
+            if s + first + 4 + 4 * layers > available {
+                return None;
+            }
+            let read = |at: u64, out: &mut [u8]| {
+                peek.seek(SeekFrom::Start(at))?;
+                peek.read_exact(out)
+            };
+            s = layered_chunk_end(read, s, layers, first, len, "").ok()?;
+        }
+        (s < available).then_some(s)
+    }
+
     /// A byte at or after `from`, within `window`, where a chunk seems to start (see
     /// [`chunk_start_after`]). Only bytes that have arrived are looked at.
     fn find_start(
@@ -570,6 +597,7 @@ fn decode_ahead<R: Arriving + Send + Sync>(
     s: u64,
     start: &Start,
     size: usize,
+    len: u64,
     stop: &AtomicBool,
 ) -> Vec<(u64, Vec<u8>)> {
     let mut held = Vec::new();
@@ -582,6 +610,12 @@ fn decode_ahead<R: Arriving + Send + Sync>(
     let mut total = 0usize;
     // At least one chunk, however soon the first lane is done: the lane is worth its start.
     while held.is_empty() || !stop.load(Ordering::Relaxed) && total < MAX_HELD {
+        if let Some((layers, first)) = start.layered {
+            let at = lane.at();
+            if check_layered_chunk(lane.dec.get_mut(), at, layers, first, len, "").is_err() {
+                break;
+            }
+        }
         let mut recs = Vec::with_capacity(start.chunk as usize * size);
         let mut raw = Vec::new();
         let got = lane.chunk(
@@ -604,7 +638,8 @@ fn decode_ahead<R: Arriving + Send + Sync>(
     held
 }
 /// A layered chunk declares its layers' sizes, and the decoder allocates them before reading:
-/// each must fit in the file (as `check_chunk_table` checks the whole file's).
+/// each must fit in the file (as `check_chunk_table` checks the whole file's). Returns where
+/// the chunk starting at `from` ends, by its sizes.
 fn check_layered_chunk<R: Read + Seek>(
     front: &mut Front<R>,
     from: u64,
@@ -612,15 +647,33 @@ fn check_layered_chunk<R: Read + Seek>(
     first: u64,
     len: u64,
     name: &str,
-) -> Result<(), ReadError> {
+) -> Result<u64, ReadError> {
+    layered_chunk_end(
+        |at, out| front.peek(at, out),
+        from,
+        layers,
+        first,
+        len,
+        name,
+    )
+}
+
+/// Where the layered chunk starting at `from` ends, by the sizes it declares (read with
+/// `peek`); an error when they run past the file's `len` bytes.
+fn layered_chunk_end(
+    mut peek: impl FnMut(u64, &mut [u8]) -> std::io::Result<()>,
+    from: u64,
+    layers: u64,
+    first: u64,
+    len: u64,
+    name: &str,
+) -> Result<u64, ReadError> {
     let sizes_at = from + first;
     let mut buf = vec![0u8; 4 + 4 * layers as usize];
     if sizes_at + buf.len() as u64 > len {
         return Err(not_here(name, "a chunk ends inside its header"));
     }
-    front
-        .peek(sizes_at, &mut buf)
-        .map_err(|e| ReadError::io(name, e))?;
+    peek(sizes_at, &mut buf).map_err(|e| ReadError::io(name, e))?;
     let words = buf
         .chunks_exact(4)
         .map(|w| u64::from(u32::from_le_bytes([w[0], w[1], w[2], w[3]])));
@@ -630,7 +683,7 @@ fn check_layered_chunk<R: Read + Seek>(
     if end > len {
         return Err(not_here(name, "a chunk's layers end past the file"));
     }
-    Ok(())
+    Ok(end)
 }
 
 /// Once every byte is in: the whole-file read's checks, then the chunks after the `spans.len()`
@@ -1062,16 +1115,43 @@ mod tests {
             assert!(whole(bytes).is_err(), "{what}");
             assert!(read_arriving(bytes, Pace::Slow, 5).is_err(), "{what}");
         }
+        // Damage where a second lane reads: in layered chunks' declared sizes and layers, and
+        // in point-wise chunks, past the half that arrives at once.
+        for bytes in [layered_bytes(1_000_003), laz_bytes(1_000_003)] {
+            let len = bytes.len();
+            for at in [
+                len * 6 / 10,
+                len * 7 / 10 + 3,
+                len * 8 / 10 + 7,
+                len * 9 / 10,
+            ] {
+                let mut damaged = bytes.clone();
+                damaged[at] ^= 0xff;
+                match (
+                    read_arriving(&damaged, Pace::HalfThenRest, 9),
+                    whole(&damaged),
+                ) {
+                    (Ok((early, _)), Ok(stored)) => assert_same(&early, &stored),
+                    (Ok(_), Err(e)) => panic!("byte {at}: read early, but the file fails: {e}"),
+                    (Err(_), _) => {}
+                }
+            }
+        }
     }
 
     #[test]
     fn a_second_lane_decodes_ahead_and_changes_nothing() {
-        // 21 chunks, the last of 3 points; half arrive at once, so a second lane has work.
-        let bytes = laz_bytes(1_000_003);
-        let stored = whole(&bytes).unwrap();
-        let (early, front) = read_arriving(&bytes, Pace::HalfThenRest, 11).unwrap();
-        assert_same(&early, &stored);
-        assert!(front.ahead > 0 && front.chunks < 21, "{front:?}");
+        // 21 chunks, the last of 3 points; half arrive at once, so a second lane has work. It
+        // finds a point-wise chunk's start by its first record, a layered one's by hopping.
+        for (what, bytes) in [
+            ("format 1", laz_bytes(1_000_003)),
+            ("format 6", layered_bytes(1_000_003)),
+        ] {
+            let stored = whole(&bytes).unwrap();
+            let (early, front) = read_arriving(&bytes, Pace::HalfThenRest, 11).unwrap();
+            assert_same(&early, &stored);
+            assert!(front.ahead > 0 && front.chunks < 21, "{what}: {front:?}");
+        }
     }
 
     #[test]
