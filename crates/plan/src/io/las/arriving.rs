@@ -3,9 +3,10 @@
 //!
 //! The header and VLRs come first. Then the chunks are decoded front to back as their bytes
 //! arrive: a fixed-size chunk's decoder needs no chunk table, and where it ends the next chunk
-//! begins. When bytes arrive faster than one thread decodes them, a second lane guesses where a
-//! chunk starts further on and decodes from there; its chunks count only once the first lane
-//! reaches exactly that byte. Once every byte is in, the file gets the whole-file read's checks (`check_header`, the header
+//! begins. When bytes arrive faster than one thread decodes them, a second lane finds where a
+//! chunk starts further on (a layered chunk declares its size; a point-wise chunk's start is
+//! guessed from its first record) and decodes from there; its chunks count only once the
+//! first lane reaches exactly that byte. Once every byte is in, the file gets the whole-file read's checks (`check_header`, the header
 //! as the `las` crate parses it, the chunk table) and the chunks left are decoded in parallel
 //! from the table.
 //!
