@@ -6,9 +6,9 @@
 //! begins. When bytes arrive faster than one thread decodes them, a second lane finds where a
 //! chunk starts further on (a layered chunk declares its size; a point-wise chunk's start is
 //! guessed from its first record) and decodes from there; its chunks count only once the
-//! first lane reaches exactly that byte. Once every byte is in, the file gets the whole-file read's checks (`check_header`, the header
-//! as the `las` crate parses it, the chunk table) and the chunks left are decoded in parallel
-//! from the table.
+//! first lane reaches exactly that byte. Once every byte is in, the file gets the whole-file
+//! read's checks (`check_header`, the header as the `las` crate parses it, the chunk table) and
+//! the chunks left are decoded in parallel from the table.
 //!
 //! The cloud is exactly [`super::read_las`]'s for the whole file. Every chunk decoded front to
 //! back must have ended where the table says it does, so both reads decoded the same bytes;
@@ -342,6 +342,7 @@ where
             (true, Some((layers, first))) => {
                 lane.hop_layered(at, at + waiting / 2, layers, first, len)
             }
+            // Only a guess: a start that cannot be looked for is no start.
             (true, None) => lane
                 .find_start(
                     at + waiting / 2,
@@ -350,16 +351,16 @@ where
                     points.layout,
                     points.guard,
                 )
-                .map_err(io)?,
+                .unwrap_or(None),
         };
-        let Some(s) = guess else {
+        let second_handle = guess.and_then(|s| lane.another().ok().map(|h| (s, h)));
+        let Some((s, other)) = second_handle else {
             spans.push(front_chunk(
                 &mut lane, start, points, b, &mut raw, len, name,
             )?);
             at = lane.at();
             continue;
         };
-        let other = lane.another().map_err(io)?;
         let stop = AtomicBool::new(false);
         let (first, held) = std::thread::scope(|scope| {
             let behind = scope.spawn(|| decode_ahead(other, s, start, size, len, &stop));
@@ -562,7 +563,8 @@ const PROBE_BYTES: u64 = 16 << 10;
 
 /// The first offset before `last` in `bytes` where a point-wise chunk seems to start: its
 /// first record, which such a chunk holds as it is, is a finite point within `guard`'s bounds,
-/// and so are the next records decoded from there, while the bytes last. A coordinate of
+/// and so are the next [`PROBE`] records decoded from there (an offset too near the end of
+/// `bytes` to decode them is passed over). A coordinate of
 /// compressed bytes lands within real bounds about once in 10^5 tries, a whole point about
 /// once in 10^15, but a record's bytes shifted by a coordinate are often a point too, hence
 /// the records decoded after it. A wrong guess only costs the second lane's work.
