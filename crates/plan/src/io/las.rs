@@ -1166,10 +1166,8 @@ mod tests {
         Mapped::new(&file, &ReadOptions::default()).expect("a file maps")
     }
 
-    #[test]
-    fn parallel_laz_reads_exactly_the_serial_points() {
-        // Several compressed chunks, the last one short.
-        let n = 123_457;
+    /// A cloud of `n` points in runs of three scans, with times (the LAZ tests' cloud).
+    pub(super) fn cloud(n: usize) -> PointCloud {
         let mut c = PointCloud {
             origin: [500_000.0, 5_400_000.0, 0.0],
             scan_ids: vec![4, 9, 2],
@@ -1182,6 +1180,14 @@ mod tests {
             c.scan.push(((i / 7_000) % 3) as u16);
             c.time.push(i as f64 * 1e-3);
         }
+        c
+    }
+
+    #[test]
+    fn parallel_laz_reads_exactly_the_serial_points() {
+        // Several compressed chunks, the last one short.
+        let n = 123_457;
+        let c = cloud(n);
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("t.laz");
         crate::io::export::write_las(&path, &c, true).unwrap();

@@ -408,8 +408,7 @@ fn front_chunk<'a, R: Arriving + Send + Sync + 'a>(
     name: &str,
 ) -> Result<u64, ReadError> {
     if let Some((layers, first)) = start.layered {
-        let at = lane.at();
-        check_layered_chunk(lane.dec.get_mut(), at, layers, first, len, name)?;
+        lane.layered_end(layers, first, len, name)?;
     }
     lane.chunk(start.chunk, &start.vlr, |r| points.push(b, r, 1), raw)
         .map_err(|e| e.into_error(name))
@@ -465,6 +464,27 @@ impl<'a, R: Arriving + Send + Sync + 'a> Lane<'a, R> {
 
     fn another(&self) -> std::io::Result<R> {
         self.dec.get().buf.get_ref().another()
+    }
+
+    /// Where the layered chunk the lane is at ends, by the sizes it declares. The decoder
+    /// allocates each layer's declared size before reading it, so each must fit in the file
+    /// (as `check_chunk_table` checks the whole file's).
+    fn layered_end(
+        &mut self,
+        layers: u64,
+        first: u64,
+        len: u64,
+        name: &str,
+    ) -> Result<u64, ReadError> {
+        let (from, front) = (self.at(), self.dec.get_mut());
+        layered_chunk_end(
+            |at, out| front.peek(at, out),
+            from,
+            layers,
+            first,
+            len,
+            name,
+        )
     }
 
     /// The lane going on from byte `at`, a chunk's start.
@@ -614,8 +634,7 @@ fn decode_ahead<R: Arriving + Send + Sync>(
     // At least one chunk, however soon the first lane is done: the lane is worth its start.
     while held.is_empty() || !stop.load(Ordering::Relaxed) && total < MAX_HELD {
         if let Some((layers, first)) = start.layered {
-            let at = lane.at();
-            if check_layered_chunk(lane.dec.get_mut(), at, layers, first, len, "").is_err() {
+            if lane.layered_end(layers, first, len, "").is_err() {
                 break;
             }
         }
@@ -639,26 +658,6 @@ fn decode_ahead<R: Arriving + Send + Sync>(
         }
     }
     held
-}
-/// A layered chunk declares its layers' sizes, and the decoder allocates them before reading:
-/// each must fit in the file (as `check_chunk_table` checks the whole file's). Returns where
-/// the chunk starting at `from` ends, by its sizes.
-fn check_layered_chunk<R: Read + Seek>(
-    front: &mut Front<R>,
-    from: u64,
-    layers: u64,
-    first: u64,
-    len: u64,
-    name: &str,
-) -> Result<u64, ReadError> {
-    layered_chunk_end(
-        |at, out| front.peek(at, out),
-        from,
-        layers,
-        first,
-        len,
-        name,
-    )
 }
 
 /// Where the layered chunk starting at `from` ends, by the sizes it declares (read with
@@ -828,6 +827,7 @@ where
 
 #[cfg(test)]
 mod tests {
+    use super::super::tests::cloud;
     use super::*;
     use std::sync::{Arc, Condvar, Mutex};
 
@@ -961,23 +961,6 @@ mod tests {
             "t.laz",
             &ReadOptions::default(),
         )
-    }
-
-    /// A cloud of `n` points in runs of scans, with times.
-    fn cloud(n: usize) -> PointCloud {
-        let mut c = PointCloud {
-            origin: [500_000.0, 5_400_000.0, 0.0],
-            scan_ids: vec![4, 9, 2],
-            ..Default::default()
-        };
-        for i in 0..n {
-            let f = i as f32;
-            c.xyz
-                .push([f * 0.001, (f * 0.37).sin() * 20.0, (i % 300) as f32 * 0.01]);
-            c.scan.push(((i / 7_000) % 3) as u16);
-            c.time.push(i as f64 * 1e-3);
-        }
-        c
     }
 
     /// LAZ of point format 1 (point-wise chunks, 50 000 points each) as the exporter writes it.
