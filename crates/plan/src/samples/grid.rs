@@ -136,8 +136,25 @@ impl Summary {
 }
 
 /// A cell left out of the scatter: no output position is this large (a story indexes fewer
-/// than 2^32 - 1 points).
+/// than 2^32 - 1 points). Also a point in no held cell: no cell index is this large
+/// ([`MAX_CELLS`]).
 const SKIP: u32 = u32::MAX;
+
+/// Points whose cells are found before any of them is counted or placed. The per-cell arrays
+/// are far larger than the caches, so nearly every update waits on memory; with the cells
+/// known first, the processor has a batch of independent updates in flight at once.
+const BATCH: usize = 32;
+
+/// The held cell of each point of `batch` (at most [`BATCH`] points), [`SKIP`] for points in
+/// none.
+#[inline]
+fn batch_keys(batch: &[[f32; 3]], key: impl Fn(&[f32; 3]) -> Option<usize>) -> [u32; BATCH] {
+    let mut cells = [SKIP; BATCH];
+    for (c, p) in cells.iter_mut().zip(batch) {
+        *c = key(p).map_or(SKIP, |c| c as u32);
+    }
+    cells
+}
 
 impl Grid {
     /// Sorts the points of `story` (those with `z_min <= z < z_max`) that fall in `range` of
@@ -211,21 +228,24 @@ impl Grid {
                     if cancel.is_stopped() {
                         break;
                     }
-                    for p in &xyz[r] {
-                        let Some(c) = key(p) else {
-                            continue;
-                        };
-                        let s = &mut sums[c];
-                        s.n += 1;
-                        // z is a number (it is in the story): one comparison each, not
-                        // `min`'s care for NaN.
-                        let z = p[2];
-                        s.zmin = if z < s.zmin { z } else { s.zmin };
-                        s.zmax = if z > s.zmax { z } else { s.zmax };
-                        s.slice += u32::from(p[2] >= slice[0] && p[2] < slice[1]);
-                        let b = bin_code(p[2]);
-                        if b != super::cell::NO_BIN {
-                            s.mask |= 1 << b;
+                    for batch in xyz[r].chunks(BATCH) {
+                        let cells = batch_keys(batch, key);
+                        for (p, &c) in batch.iter().zip(&cells) {
+                            if c == SKIP {
+                                continue;
+                            }
+                            let s = &mut sums[c as usize];
+                            s.n += 1;
+                            // z is a number (it is in the story): one comparison each, not
+                            // `min`'s care for NaN.
+                            let z = p[2];
+                            s.zmin = if z < s.zmin { z } else { s.zmin };
+                            s.zmax = if z > s.zmax { z } else { s.zmax };
+                            s.slice += u32::from(p[2] >= slice[0] && p[2] < slice[1]);
+                            let b = bin_code(p[2]);
+                            if b != super::cell::NO_BIN {
+                                s.mask |= 1 << b;
+                            }
                         }
                     }
                 }
@@ -355,22 +375,26 @@ impl Grid {
                 if cancel.is_stopped() {
                     return;
                 }
-                for (k, q) in xyz[r.clone()].iter().enumerate() {
-                    let Some(c) = key(q) else {
-                        continue;
-                    };
-                    let slot = &mut next[c];
-                    if *slot == SKIP {
-                        continue;
-                    }
-                    let dst = *slot as usize;
-                    *slot += 1;
-                    p[dst] = *q;
-                    b[dst] = bin_code(q[2]);
-                    match carry {
-                        Carry::Slots => s[dst] = points.scan[r.start + k],
-                        Carry::Times => t[dst] = points.time[r.start + k],
-                        Carry::Nothing => {}
+                for (n, batch) in xyz[r.clone()].chunks(BATCH).enumerate() {
+                    let cells = batch_keys(batch, key);
+                    let at = r.start + n * BATCH;
+                    for (k, (q, &c)) in batch.iter().zip(&cells).enumerate() {
+                        if c == SKIP {
+                            continue;
+                        }
+                        let slot = &mut next[c as usize];
+                        if *slot == SKIP {
+                            continue;
+                        }
+                        let dst = *slot as usize;
+                        *slot += 1;
+                        p[dst] = *q;
+                        b[dst] = bin_code(q[2]);
+                        match carry {
+                            Carry::Slots => s[dst] = points.scan[at + k],
+                            Carry::Times => t[dst] = points.time[at + k],
+                            Carry::Nothing => {}
+                        }
                     }
                 }
             }
