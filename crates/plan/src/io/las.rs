@@ -125,6 +125,26 @@ where
     let mut pd = PointDataBuilder::new().for_header(&header).build();
     let mut done = 0u64;
     let mut outside = 0u64;
+    if parallel {
+        // Two batches in turn: the decoder's threads fill one while this thread takes the
+        // other's records into the cloud, which would otherwise leave them idle.
+        let mut next = PointDataBuilder::new().for_header(&header).build();
+        let mut n = fill(&mut reader, batch, &mut pd, done, count, name, fname)?;
+        while n > 0 {
+            let (mut taken, mut filled) = (Ok(0), Ok(0));
+            // In place: the reader stays on this thread (it cannot move to another).
+            rayon::in_place_scope(|s| {
+                s.spawn(|_| taken = decode_batch(&mut b, &pd, &guard, done, name, fname));
+                filled = fill(&mut reader, batch, &mut next, done + n, count, name, fname);
+            });
+            // As the serial read: a damaged batch fails before the next is looked at.
+            outside += taken?;
+            done += n;
+            n = filled?;
+            std::mem::swap(&mut pd, &mut next);
+        }
+        return finish_las(b, &header, done, count, outside, name, fname);
+    }
     loop {
         let n = fill(&mut reader, batch, &mut pd, done, count, name, fname)?;
         if n == 0 {
@@ -1185,8 +1205,9 @@ mod tests {
 
     #[test]
     fn parallel_laz_reads_exactly_the_serial_points() {
-        // Several compressed chunks, the last one short.
-        let n = 123_457;
+        // Several batches of compressed chunks (one batch decoded while the next is filled),
+        // the last chunk short.
+        let n = 1_000_003;
         let c = cloud(n);
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("t.laz");
@@ -1196,8 +1217,12 @@ mod tests {
         let plan = check_header(&mut Cursor::new(bytes.clone()), len, "t.laz").unwrap();
         let chunk = plan.laz_chunk.expect("the file has a chunk table");
         assert!(chunk < n as u64, "one chunk only: nothing to split");
-        let read = |parallel: bool| {
-            let source = Cursor::new(bytes.clone());
+        assert!(
+            n as u64 > 2 * plan.batch(true),
+            "fewer than three batches: nothing is decoded while another fills"
+        );
+        let read = |bytes: &[u8], parallel: bool| {
+            let source = Cursor::new(bytes.to_vec());
             read_las_with(
                 source,
                 len,
@@ -1206,11 +1231,34 @@ mod tests {
                 parallel,
                 None,
             )
-            .unwrap()
         };
-        let (serial, parallel) = (read(false), read(true));
+        let (serial, parallel) = (read(&bytes, false).unwrap(), read(&bytes, true).unwrap());
         assert_eq!(serial.len(), n);
         assert_same(&serial, &parallel);
+        // Damage in the second batch fails the read, in parallel as in series, and the error
+        // names points from the damaged batch on.
+        let at = (plan.batch(true) + chunk / 2) as f64 / n as f64;
+        let mut damaged = bytes.clone();
+        let offset = 400 + ((len - 400) as f64 * at) as usize;
+        damaged[offset..offset + 64]
+            .iter_mut()
+            .for_each(|b| *b ^= 0x5a);
+        for parallel in [false, true] {
+            let e = read(&damaged, parallel).expect_err("damaged chunk read");
+            // "points 400000 to ..." or "point 412345".
+            let first = match &e {
+                ReadError::Invalid { at: Some(at), .. } => at
+                    .split_whitespace()
+                    .nth(1)
+                    .and_then(|k| k.parse::<u64>().ok()),
+                _ => None,
+            };
+            let first = first.unwrap_or_else(|| panic!("no point named: {e}"));
+            assert!(
+                first >= plan.batch(true) - chunk,
+                "parallel {parallel}: {e}"
+            );
+        }
     }
 
     /// Two reads of one file gave the same cloud, bit for bit.
