@@ -659,6 +659,8 @@ mod tests {
             match (&serial, &parallel) {
                 (Err(a), Err(b)) => {
                     assert_eq!(a.to_string(), b.to_string());
+                    // The pages' checksums (CRC-32C, by the `crc32c` crate) catch the damage.
+                    assert!(a.to_string().contains("checksum"), "byte {at}: {a}");
                     failures += 1;
                 }
                 (Ok(a), Ok(b)) => assert_eq!(a, b),
