@@ -605,3 +605,33 @@ fn blocks_of_other_heights_are_skipped_with_the_same_rooms() {
     assert!(whole.spaces.doors.iter().any(|d| d.kind == DoorKind::Door));
     assert_eq!(find(Some(&blocks)), whole);
 }
+
+#[test]
+fn the_box_index_gives_each_point_the_boxes_over_its_cell_in_order() {
+    // Boxes overlapping, nested, thin and one far off; points inside, on edges and outside.
+    let boxes = [
+        [0.0, 0.0, 2.0, 1.0],
+        [1.5, 0.5, 1.6, 3.0],
+        [0.2, 0.2, 0.3, 0.3],
+        [-1.0, 2.9, 4.0, 3.0],
+        [10.0, 10.0, 10.5, 10.5],
+    ];
+    let index = gaps::BoxIndex::new(&boxes);
+    for i in -4..50 {
+        for j in -4..50 {
+            let p = [i as f64 * 0.25 - 0.1, j as f64 * 0.25 - 0.1];
+            let near = index.near(p);
+            // In order, each once, and every box holding the point among them.
+            assert!(near.windows(2).all(|w| w[0] < w[1]), "{p:?}: {near:?}");
+            for (k, b) in boxes.iter().enumerate() {
+                let inside = p[0] >= b[0] && p[0] <= b[2] && p[1] >= b[1] && p[1] <= b[3];
+                if inside {
+                    assert!(near.contains(&k), "{p:?} in box {k}: {near:?}");
+                }
+            }
+        }
+    }
+    // Far outside the boxes, nothing is near.
+    assert!(index.near([-50.0, -50.0]).is_empty());
+    assert!(index.near([f64::NAN, 1.0]).is_empty());
+}
