@@ -563,7 +563,10 @@ pub(crate) fn ring_box(r: &[P2]) -> [f64; 4] {
 /// A coarse grid over boxes, so each point is tested against the nearby ones only.
 pub(crate) struct BoxIndex {
     origin: P2,
-    cell: f64,
+    /// One over the cell's width: a point's cell costs a multiplication rather than a
+    /// division. Boxes and points find their cells the same way, so a point finds every box
+    /// that holds it.
+    inv: f64,
     nx: usize,
     ny: usize,
     cells: Vec<Vec<usize>>,
@@ -587,7 +590,7 @@ impl BoxIndex {
             .max(1e-6);
         let mut index = BoxIndex {
             origin: lo,
-            cell,
+            inv: 1.0 / cell,
             nx,
             ny,
             cells: vec![Vec::new(); nx * ny],
@@ -605,8 +608,8 @@ impl BoxIndex {
     }
 
     fn cell_of(&self, p: P2) -> (usize, usize) {
-        let i = ((p[0] - self.origin[0]) / self.cell).floor();
-        let j = ((p[1] - self.origin[1]) / self.cell).floor();
+        let i = ((p[0] - self.origin[0]) * self.inv).floor();
+        let j = ((p[1] - self.origin[1]) * self.inv).floor();
         (
             (i.max(0.0) as usize).min(self.nx - 1),
             (j.max(0.0) as usize).min(self.ny - 1),
@@ -614,8 +617,8 @@ impl BoxIndex {
     }
 
     pub(crate) fn near(&self, p: P2) -> &[usize] {
-        let i = (p[0] - self.origin[0]) / self.cell;
-        let j = (p[1] - self.origin[1]) / self.cell;
+        let i = (p[0] - self.origin[0]) * self.inv;
+        let j = (p[1] - self.origin[1]) * self.inv;
         if !(i >= 0.0 && j >= 0.0 && (i as usize) < self.nx && (j as usize) < self.ny) {
             return &[];
         }

@@ -334,24 +334,53 @@ pub(crate) fn fit_circle(pts: &[P2]) -> Option<(P2, f64)> {
     (r2 > 0.0 && r2.is_finite()).then(|| ([m[0] + a, m[1] + b], r2.sqrt()))
 }
 
+/// Points whose elevation and sector are worked out together before any sector is updated:
+/// without the updates' branches in it, that loop runs on both lanes of the vector unit (the
+/// square root and divisions are most of its time, and round the same either way).
+const LANES: usize = 64;
+
 /// For each sector around the scanner (where it was when each point was taken), the index of
 /// the point below it with the lowest elevation.
 fn lowest_per_sector(obs: &Obs, cone: &Cone, params: &ConeParams) -> Vec<usize> {
     let n = params.sectors;
     let mut best: Vec<Option<(f64, usize)>> = vec![None; n];
     let reach2 = params.reach * params.reach;
-    for (i, p) in obs.pts.iter().enumerate() {
-        let c = cone.position(obs.dt(i));
-        let (dx, dy, dz) = (p[0] - c[0], p[1] - c[1], p[2] - c[2]);
-        let d2 = dx * dx + dy * dy;
-        if dz >= 0.0 || d2 < 1e-4 || d2 > reach2 {
-            continue;
+    let (mut elev, mut sector, mut seen) = ([0.0f64; LANES], [0.0f64; LANES], [false; LANES]);
+    for (c, chunk) in obs.pts.chunks(LANES).enumerate() {
+        let first = c * LANES;
+        let (elev, sector, seen) = (
+            &mut elev[..chunk.len()],
+            &mut sector[..chunk.len()],
+            &mut seen[..chunk.len()],
+        );
+        let mut look = |j: usize, p: &[f64; 3], c: [f64; 3]| {
+            let (dx, dy, dz) = (p[0] - c[0], p[1] - c[1], p[2] - c[2]);
+            let d2 = dx * dx + dy * dy;
+            seen[j] = !(dz >= 0.0 || d2 < 1e-4 || d2 > reach2);
+            // tan of the elevation: the most negative is the lowest.
+            elev[j] = dz / d2.sqrt();
+            sector[j] = diamond_angle(dx, dy) / 4.0 * n as f64;
+        };
+        match obs.dt {
+            // A static scanner stands in one place for every point.
+            None => {
+                let c = cone.position(0.0);
+                chunk.iter().enumerate().for_each(|(j, p)| look(j, p, c));
+            }
+            Some(dt) => chunk
+                .iter()
+                .zip(&dt[first..])
+                .enumerate()
+                .for_each(|(j, (p, &t))| look(j, p, cone.position(t))),
         }
-        // tan of the elevation: the most negative is the lowest.
-        let e = dz / d2.sqrt();
-        let k = ((diamond_angle(dx, dy) / 4.0 * n as f64) as usize).min(n - 1);
-        if best[k].is_none_or(|(b, _)| e < b) {
-            best[k] = Some((e, i));
+        for j in 0..chunk.len() {
+            if !seen[j] {
+                continue;
+            }
+            let (e, k) = (elev[j], (sector[j] as usize).min(n - 1));
+            if best[k].is_none_or(|(b, _)| e < b) {
+                best[k] = Some((e, first + j));
+            }
         }
     }
     best.into_iter().flatten().map(|(_, i)| i).collect()
@@ -359,16 +388,24 @@ fn lowest_per_sector(obs: &Obs, cone: &Cone, params: &ConeParams) -> Vec<usize> 
 
 /// A cheap stand-in for the angle of `(dx, dy)`: monotonic in it, from 0 to 4 for a full turn
 /// (the sectors it makes are within a factor 1.5 of equal, which the fit does not mind).
+/// Without branches, so that [`lowest_per_sector`]'s loop needs none.
 fn diamond_angle(dx: f64, dy: f64) -> f64 {
     let s = dx.abs() + dy.abs();
+    let (east, north) = (dx >= 0.0, dy >= 0.0);
+    // The first and third quadrants measure dy, the others dx; the second and third count
+    // down from their ends.
+    let q = if east == north { dy } else { dx } / s;
+    let base = match (east, north) {
+        (true, true) => 0.0,
+        (false, true) => 1.0,
+        (false, false) => 2.0,
+        (true, false) => 3.0,
+    };
+    let a = base + if east { q } else { -q };
     if s == 0.0 {
-        return 0.0;
-    }
-    match (dx >= 0.0, dy >= 0.0) {
-        (true, true) => dy / s,
-        (false, true) => 1.0 - dx / s,
-        (false, false) => 2.0 - dy / s,
-        (true, false) => 3.0 + dx / s,
+        0.0
+    } else {
+        a
     }
 }
 
@@ -515,6 +552,99 @@ pub(crate) mod tests {
             }
         }
         out
+    }
+
+    /// The angle as first written, with a branch per quadrant.
+    fn diamond_angle_branching(dx: f64, dy: f64) -> f64 {
+        let s = dx.abs() + dy.abs();
+        if s == 0.0 {
+            return 0.0;
+        }
+        match (dx >= 0.0, dy >= 0.0) {
+            (true, true) => dy / s,
+            (false, true) => 1.0 - dx / s,
+            (false, false) => 2.0 - dy / s,
+            (true, false) => 3.0 + dx / s,
+        }
+    }
+
+    /// The sectors' lowest points as first written: one point at a time, a branch each.
+    fn lowest_one_by_one(obs: &Obs, cone: &Cone, params: &ConeParams) -> Vec<usize> {
+        let n = params.sectors;
+        let mut best: Vec<Option<(f64, usize)>> = vec![None; n];
+        let reach2 = params.reach * params.reach;
+        for (i, p) in obs.pts.iter().enumerate() {
+            let c = cone.position(obs.dt(i));
+            let (dx, dy, dz) = (p[0] - c[0], p[1] - c[1], p[2] - c[2]);
+            let d2 = dx * dx + dy * dy;
+            if dz >= 0.0 || d2 < 1e-4 || d2 > reach2 {
+                continue;
+            }
+            let e = dz / d2.sqrt();
+            let k = ((diamond_angle_branching(dx, dy) / 4.0 * n as f64) as usize).min(n - 1);
+            if best[k].is_none_or(|(b, _)| e < b) {
+                best[k] = Some((e, i));
+            }
+        }
+        best.into_iter().flatten().map(|(_, i)| i).collect()
+    }
+
+    #[test]
+    fn the_sectors_lowest_points_are_those_of_one_point_at_a_time() {
+        // A pseudo-random cloud around the apex, with exact repeats (ties) and points above,
+        // beside and beyond the reach; static and moving.
+        let mut state = 12345u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut pts: Vec<[f64; 3]> = (0..5000)
+            .map(|_| [next() * 24.0 - 12.0, next() * 24.0 - 12.0, next() * 3.0])
+            .collect();
+        pts.extend(pts[..300].to_vec());
+        pts.push([0.0, 0.0, 0.0]);
+        let dt: Vec<f64> = (0..pts.len()).map(|_| next() * 2.0 - 1.0).collect();
+        let params = ConeParams::default();
+        for (apex, velocity) in [
+            ([0.0, 0.0, 1.5], [0.0, 0.0]),
+            ([0.3, -2.0, 2.0], [0.0, 0.0]),
+            ([0.3, -2.0, 2.0], [0.4, -0.2]),
+        ] {
+            let cone = Cone {
+                velocity,
+                ..Cone::at(apex, 1.0)
+            };
+            for dt in [None, Some(&dt[..])] {
+                let obs = Obs { pts: &pts, dt };
+                let got = lowest_per_sector(&obs, &cone, &params);
+                assert!(got.len() > 60, "{}", got.len());
+                assert_eq!(got, lowest_one_by_one(&obs, &cone, &params));
+            }
+        }
+    }
+
+    #[test]
+    fn the_branchless_diamond_angle_is_the_branching_one() {
+        let mut dirs: Vec<(f64, f64)> = (0..100_000)
+            .map(|k| {
+                let a = k as f64 * 0.000_062_831_853 + 1e-7;
+                let r = 0.01 + (k % 97) as f64 * 0.1;
+                (r * a.cos(), r * a.sin())
+            })
+            .collect();
+        for v in [0.0, -0.0, 1.0, -1.0, 1e-300, -1e-300, 3.5] {
+            for w in [0.0, -0.0, 1.0, -1.0, 1e-300, -1e-300, 2.25] {
+                dirs.push((v, w));
+            }
+        }
+        for (dx, dy) in dirs {
+            let (a, b) = (diamond_angle(dx, dy), diamond_angle_branching(dx, dy));
+            // Equal as numbers (a zero's sign may differ), so in the same sector.
+            assert_eq!(a, b, "({dx}, {dy})");
+            assert_eq!((a / 4.0 * 72.0) as usize, (b / 4.0 * 72.0) as usize);
+        }
     }
 
     #[test]
