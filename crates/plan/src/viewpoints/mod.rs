@@ -19,6 +19,8 @@ pub(crate) mod open_space;
 pub(crate) mod path;
 pub(crate) mod raster;
 
+use std::ops::Range;
+
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -367,16 +369,17 @@ fn estimate_static(
             .and_then(|p| p.get(slot))
             .filter(|p| finite(p.position))
     };
-    let mut sampler = Thinned::new(params.max_points_per_scan, slots);
-    for (&s, p) in cloud.scan.iter().zip(&cloud.xyz) {
-        if known(s as usize).is_none() {
-            sampler.push(s as usize, *p);
-        }
-    }
-    let cones: Vec<Option<cone::Cone>> = sampler
-        .slots
+    let unknown: Vec<bool> = (0..slots).map(|s| known(s).is_none()).collect();
+    let thinned = thin_scans(
+        &cloud.scan,
+        &cloud.xyz,
+        counts,
+        &unknown,
+        params.max_points_per_scan,
+    );
+    let cones: Vec<Option<cone::Cone>> = thinned
         .par_iter()
-        .map(|t| cone::locate(&t.items, &cone::ConeParams::default()))
+        .map(|t| cone::locate(t, &cone::ConeParams::default()))
         .collect();
     let mut out = Vec::with_capacity(slots);
     let mut scans = Vec::with_capacity(slots);
@@ -429,54 +432,80 @@ fn estimate_static(
     }
 }
 
-/// An even subsample of at most `cap` items per slot, whatever order the items arrive in:
-/// when a slot is full, every other item is dropped and the slot keeps every second item
-/// from then on.
-pub(crate) struct Thinned<T> {
+/// Points read between looks at the counts, in [`thin_scans`].
+const THIN_PART: usize = 1 << 20;
+
+/// An even subsample of at most `cap` points (at least 2) of each scan slot `wanted` says:
+/// every `stride`-th point of the slot in cloud order from its first, the stride the least
+/// power of two that leaves no more than `cap`. That is what keeping every point, and every
+/// other one whenever the slot fills, keeps as the points arrive; here the slots' `counts`
+/// give the strides up front, so the cloud is read in parts on all cores, each part starting
+/// from how many points of each slot came before it.
+fn thin_scans(
+    scan: &[u16],
+    xyz: &[[f32; 3]],
+    counts: &[u64],
+    wanted: &[bool],
     cap: usize,
-    pub slots: Vec<ThinSlot<T>>,
-}
-
-pub(crate) struct ThinSlot<T> {
-    stride: u64,
-    seen: u64,
-    pub items: Vec<T>,
-}
-
-impl<T> Thinned<T> {
-    pub fn new(cap: usize, slots: usize) -> Thinned<T> {
-        Thinned {
-            cap: cap.max(2),
-            slots: (0..slots)
-                .map(|_| ThinSlot {
-                    stride: 1,
-                    seen: 0,
-                    items: Vec::new(),
-                })
-                .collect(),
-        }
-    }
-
-    pub fn push(&mut self, slot: usize, item: T) {
-        let cap = self.cap;
-        let Some(s) = self.slots.get_mut(slot) else {
-            return;
-        };
-        if s.seen.is_multiple_of(s.stride) {
-            if s.items.len() == cap {
-                let mut k = 0;
-                s.items.retain(|_| {
-                    k += 1;
-                    k % 2 == 1
-                });
-                s.stride *= 2;
+) -> Vec<Vec<[f32; 3]>> {
+    let (slots, cap) = (counts.len(), cap.max(2) as u64);
+    let stride: Vec<u64> = counts
+        .iter()
+        .map(|&n| {
+            let mut s = 1u64;
+            while n.div_ceil(s) > cap {
+                s *= 2;
             }
-            if s.seen.is_multiple_of(s.stride) {
-                s.items.push(item);
+            s
+        })
+        .collect();
+    let wanted = |s: usize| s < slots && wanted.get(s).copied().unwrap_or(false);
+    let parts: Vec<Range<usize>> = (0..scan.len().min(xyz.len()))
+        .step_by(THIN_PART)
+        .map(|s| s..(s + THIN_PART).min(scan.len()))
+        .collect();
+    let part_counts: Vec<Vec<u64>> = parts
+        .par_iter()
+        .map(|r| {
+            let mut c = vec![0u64; slots];
+            count_scans(&mut c, &scan[r.clone()]);
+            c
+        })
+        .collect();
+    // Each part's place in every slot's order: the slot's points in the parts before it.
+    let mut before = vec![0u64; slots];
+    let starts: Vec<Vec<u64>> = part_counts
+        .iter()
+        .map(|c| {
+            let start = before.clone();
+            before.iter_mut().zip(c).for_each(|(b, n)| *b += n);
+            start
+        })
+        .collect();
+    let kept: Vec<Vec<Vec<[f32; 3]>>> = parts
+        .par_iter()
+        .zip(starts)
+        .map(|(r, mut order)| {
+            let mut out = vec![Vec::new(); slots];
+            for k in r.clone() {
+                let s = scan[k] as usize;
+                if !wanted(s) {
+                    continue;
+                }
+                // A power of two: a mask says what a division would.
+                if order[s] & (stride[s] - 1) == 0 {
+                    out[s].push(xyz[k]);
+                }
+                order[s] += 1;
             }
-        }
-        s.seen += 1;
+            out
+        })
+        .collect();
+    let mut thinned = vec![Vec::new(); slots];
+    for part in kept {
+        thinned.iter_mut().zip(part).for_each(|(t, p)| t.extend(p));
     }
+    thinned
 }
 
 /// Notes for the user: where the viewpoints came from when they were not all given, and how
@@ -613,6 +642,58 @@ mod tests {
         assert!(!notes.contains("used as the trajectory"), "{notes}");
     }
 
+    /// An even subsample of at most `cap` items per slot, whatever order the items arrive in:
+    /// when a slot is full, every other item is dropped and the slot keeps every second item
+    /// from then on.
+    struct Thinned<T> {
+        cap: usize,
+        slots: Vec<ThinSlot<T>>,
+    }
+
+    struct ThinSlot<T> {
+        stride: u64,
+        seen: u64,
+        items: Vec<T>,
+    }
+
+    impl<T> Thinned<T> {
+        fn new(cap: usize, slots: usize) -> Thinned<T> {
+            Thinned {
+                cap: cap.max(2),
+                slots: (0..slots)
+                    .map(|_| ThinSlot {
+                        stride: 1,
+                        seen: 0,
+                        items: Vec::new(),
+                    })
+                    .collect(),
+            }
+        }
+
+        fn push(&mut self, slot: usize, item: T) {
+            let cap = self.cap;
+            let Some(s) = self.slots.get_mut(slot) else {
+                return;
+            };
+            // The stride is a power of two: a mask says what a division would, at a fraction of
+            // its cost (this runs for every point of a cloud).
+            if s.seen & (s.stride - 1) == 0 {
+                if s.items.len() == cap {
+                    let mut k = 0;
+                    s.items.retain(|_| {
+                        k += 1;
+                        k % 2 == 1
+                    });
+                    s.stride *= 2;
+                }
+                if s.seen & (s.stride - 1) == 0 {
+                    s.items.push(item);
+                }
+            }
+            s.seen += 1;
+        }
+    }
+
     #[test]
     fn thinning_keeps_an_even_subsample() {
         let mut t = Thinned::new(10, 2);
@@ -624,6 +705,41 @@ mod tests {
         // 100 items into 10 places: every 16th, from the first.
         assert_eq!(t.slots[0].items, vec![0, 16, 32, 48, 64, 80, 96]);
         assert_eq!(t.slots[1].items, vec![7]);
+    }
+
+    #[test]
+    fn thinning_in_parts_keeps_what_thinning_as_the_points_arrive_keeps() {
+        // Scans interleaved in runs, across several parts; slot 2 not wanted, slot 9 unknown.
+        let n = 3 * THIN_PART + 12_345;
+        let scan: Vec<u16> = (0..n)
+            .map(|k| match (k / 1000) % 7 {
+                0 | 3 => 0,
+                1 | 5 => 1,
+                2 => 2,
+                4 => 3,
+                _ => 9,
+            })
+            .collect();
+        let xyz: Vec<[f32; 3]> = (0..n).map(|k| [k as f32, 0.0, 0.0]).collect();
+        let wanted = [true, true, false, true];
+        let mut counts = vec![0u64; 4];
+        count_scans(&mut counts, &scan);
+        for cap in [2, 1000, 20_000, 10_000_000] {
+            let mut reference = Thinned::new(cap, 4);
+            for (&s, p) in scan.iter().zip(&xyz) {
+                if wanted.get(s as usize).copied().unwrap_or(false) {
+                    reference.push(s as usize, *p);
+                }
+            }
+            let thinned = thin_scans(&scan, &xyz, &counts, &wanted, cap);
+            assert_eq!(thinned.len(), 4);
+            for (slot, t) in thinned.iter().enumerate() {
+                assert_eq!(t, &reference.slots[slot].items, "cap {cap}, slot {slot}");
+                assert!(t.len() <= cap.max(2));
+            }
+            assert!(thinned[2].is_empty());
+            assert!(!thinned[0].is_empty());
+        }
     }
 
     #[test]
