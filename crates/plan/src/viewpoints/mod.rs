@@ -432,7 +432,7 @@ fn estimate_static(
     }
 }
 
-/// Points read between looks at the counts, in [`thin_scans`].
+/// The fewest points in a part of [`thin_scans`].
 const THIN_PART: usize = 1 << 20;
 
 /// An even subsample of at most `cap` points (at least 2) of each scan slot `wanted` says:
@@ -460,10 +460,11 @@ fn thin_scans(
         })
         .collect();
     let wanted = |s: usize| s < slots && wanted.get(s).copied().unwrap_or(false);
-    let parts: Vec<Range<usize>> = (0..scan.len().min(xyz.len()))
-        .step_by(THIN_PART)
-        .map(|s| s..(s + THIN_PART).min(scan.len()))
-        .collect();
+    // A few parts a core, so that the parts' counts (a number a slot each) stay small however
+    // many scans there are.
+    let n = scan.len().min(xyz.len());
+    let part = THIN_PART.max(n.div_ceil(4 * rayon::current_num_threads().max(1)));
+    let parts: Vec<Range<usize>> = (0..n).step_by(part).map(|s| s..(s + part).min(n)).collect();
     let part_counts: Vec<Vec<u64>> = parts
         .par_iter()
         .map(|r| {
