@@ -367,11 +367,11 @@ fn lowest_per_sector(obs: &Obs, cone: &Cone, params: &ConeParams) -> Vec<usize> 
                 let c = cone.position(0.0);
                 chunk.iter().enumerate().for_each(|(j, p)| look(j, p, c));
             }
+            // Indexed, not zipped: every point of the chunk gets its look.
             Some(dt) => chunk
                 .iter()
-                .zip(&dt[first..])
                 .enumerate()
-                .for_each(|(j, (p, &t))| look(j, p, cone.position(t))),
+                .for_each(|(j, p)| look(j, p, cone.position(dt[first + j]))),
         }
         for j in 0..chunk.len() {
             if !seen[j] {
