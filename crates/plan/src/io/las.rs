@@ -84,6 +84,18 @@ where
     let plan = check_header(&mut source, len, name)?;
     let threads = super::pool::threads();
     if parallel && plan.laz_chunk.is_some() {
+        // Fixed-size chunks go straight into the cloud; the rest, and every error, through
+        // the `las` crate, whose read gives the same cloud or the error to report.
+        if let Ok(cloud) = arriving::read_laz_whole(&mut source, len, name, options) {
+            return Ok(cloud);
+        }
+        options
+            .cancel
+            .check()
+            .map_err(|c| ReadError::Cancelled(c, name.into()))?;
+        source
+            .seek(SeekFrom::Start(0))
+            .map_err(|e| ReadError::io(name, e))?;
         // The decoder's threads are the pool's: run the whole read there.
         super::pool::install(|| decode_las(source, len, name, options, &plan, true))
     } else if parallel && plan.format == "las" {
@@ -1235,6 +1247,15 @@ mod tests {
         let (serial, parallel) = (read(&bytes, false).unwrap(), read(&bytes, true).unwrap());
         assert_eq!(serial.len(), n);
         assert_same(&serial, &parallel);
+        // The parallel read took the path straight into the cloud, not the `las` crate's.
+        let straight = arriving::read_laz_whole(
+            &mut Cursor::new(bytes.clone()),
+            len,
+            "t.laz",
+            &ReadOptions::default(),
+        )
+        .expect("fixed-size chunks are decoded straight into the cloud");
+        assert_same(&serial, &straight);
         // Damage in the second batch fails the read, in parallel as in series, and the error
         // names points from the damaged batch on.
         let at = (plan.batch(true) + chunk / 2) as f64 / n as f64;

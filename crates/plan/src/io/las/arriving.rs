@@ -74,6 +74,54 @@ where
     read_counted(source, len, name, options).map(|(cloud, _)| cloud)
 }
 
+/// Reads the LAZ file `source` of `len` bytes, all there: the chunks are decoded in parallel
+/// from the chunk table, straight into the cloud's arrays. The cloud is [`super::read_las`]'s
+/// through the `las` crate, which is faster to reach this way; whatever this read refuses, or
+/// fails on, is left to that one.
+pub(super) fn read_laz_whole<R>(
+    source: &mut R,
+    len: u64,
+    name: &str,
+    options: &ReadOptions,
+) -> Result<PointCloud, ReadError>
+where
+    R: Read + Seek + Send + Sync,
+{
+    source
+        .seek(SeekFrom::Start(0))
+        .map_err(|e| ReadError::io(name, e))?;
+    read_laz_arriving(Whole(source, len), len, name, options)
+}
+
+/// A file that has arrived whole: no read waits, and no second lane is asked for.
+struct Whole<'a, R>(&'a mut R, u64);
+
+impl<R: Read> Read for Whole<'_, R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        self.0.read(buf)
+    }
+}
+
+impl<R: Seek> Seek for Whole<'_, R> {
+    fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
+        self.0.seek(pos)
+    }
+}
+
+impl<R: Read + Seek> Arriving for Whole<'_, R> {
+    fn arrived(&self) -> bool {
+        true
+    }
+
+    fn available(&self) -> u64 {
+        self.1
+    }
+
+    fn another(&self) -> std::io::Result<Self> {
+        Err(std::io::Error::other("a whole file has one lane"))
+    }
+}
+
 /// The chunks decoded before the last byte arrived, and how many of them the second lane
 /// decoded.
 #[derive(Debug, Clone, Copy)]
