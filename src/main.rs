@@ -36,6 +36,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    asbuilt_plan::io::keep_freed_memory();
     let args = Args::parse();
     let result = match args.command {
         Command::Plan(a) => cli::plan::run(a),

@@ -387,9 +387,22 @@ fn decode_las_block(
     let pieces = decode_pieces(out, buf, size, per, |recs, out| {
         decode_las_piece(layout, guard, recs, origin, out)
     });
+    settle_las_pieces(b, at, n, per, &pieces)
+}
+
+/// After `pieces` of `per` points each were decoded into points `at..at + n` of the builder's
+/// arrays, in order: gives their scans the cloud's slots and closes the gaps skipped points
+/// left. Returns the points kept and how many lie outside the header's bounds.
+fn settle_las_pieces(
+    b: &mut CloudBuilder,
+    at: usize,
+    n: usize,
+    per: usize,
+    pieces: &[LasPiece],
+) -> Result<(usize, u64), String> {
     // Pieces' scans take the cloud's slots in order, as a serial read would give them.
     let mut maps = Vec::with_capacity(pieces.len());
-    for piece in &pieces {
+    for piece in pieces {
         let map = piece.slots.ids.iter().map(|&id| b.scan_slot(id));
         maps.push((piece.kept, map.collect::<Result<Vec<u16>, String>>()?));
     }
@@ -1280,6 +1293,58 @@ mod tests {
                 "parallel {parallel}: {e}"
             );
         }
+    }
+
+    #[test]
+    fn laz_chunks_decoded_in_place_give_the_serial_reads_scans_in_its_order() {
+        // Chunks of 50 000 points decoded each straight into its stretch of the cloud: scans
+        // first seen in later chunks (chunks 3 and 6, after the first group) must still take
+        // their slots in file order, and the short last chunk must end the cloud.
+        let n = 450_001;
+        let mut c = cloud(n);
+        c.scan_ids = vec![30, 7, 19, 3, 25, 11];
+        for (i, s) in c.scan.iter_mut().enumerate() {
+            *s = ((i / 150_000 + (i / 3_000) % 2 * 3) % 6) as u16;
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.laz");
+        crate::io::export::write_las(&path, &c, true).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let len = bytes.len() as u64;
+        let options = ReadOptions::default();
+        let serial = read_las_with(
+            Cursor::new(bytes.clone()),
+            len,
+            "t.laz",
+            &options,
+            false,
+            None,
+        )
+        .unwrap();
+        let straight =
+            arriving::read_laz_whole(&mut Cursor::new(bytes.clone()), len, "t.laz", &options)
+                .expect("fixed-size chunks are decoded straight into the cloud");
+        assert_eq!(serial.len(), n);
+        assert_eq!(serial.scan_ids, [30, 3, 7, 25, 19, 11]);
+        assert_same(&serial, &straight);
+        // Without times, too (the records are the same; only the arrays differ).
+        let options = ReadOptions {
+            keep_time: false,
+            ..ReadOptions::default()
+        };
+        let serial = read_las_with(
+            Cursor::new(bytes.clone()),
+            len,
+            "t.laz",
+            &options,
+            false,
+            None,
+        )
+        .unwrap();
+        let straight =
+            arriving::read_laz_whole(&mut Cursor::new(bytes), len, "t.laz", &options).unwrap();
+        assert!(straight.time.is_empty());
+        assert_same(&serial, &straight);
     }
 
     /// Two reads of one file gave the same cloud, bit for bit.

@@ -32,6 +32,7 @@ use crate::cloud::{PointCloud, Viewpoints};
 pub use count::{declared_points, declared_points_in_head};
 pub use detect::Format;
 pub use las::Arriving;
+pub use pages::keep_freed_memory;
 pub use sidecar::{Sidecar, SidecarKind};
 pub use units::{check_units, UnitsError};
 

@@ -22,6 +22,7 @@
 use std::io::{BufReader, Cursor, Read, Seek, SeekFrom};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
 
 use laz::laszip::{ChunkTable, ChunkTableEntry};
 use laz::record::{
@@ -31,12 +32,12 @@ use laz::{LazItem, LazVlr};
 use rayon::prelude::*;
 
 use super::{
-    check_header, decode_las_block, finish_las, layered_shape, BoundsGuard, Layout, CHUNK,
-    LAYERED_CHUNKED, LAZ_RESERVE_POINTS_PER_BYTE, MAX_LAZ_POINTS_PER_BYTE, MAX_PARALLEL_BATCH,
-    POINTWISE_CHUNKED,
+    check_header, decode_las_block, decode_las_piece, finish_las, layered_shape, settle_las_pieces,
+    BoundsGuard, Layout, CHUNK, LAYERED_CHUNKED, LAZ_RESERVE_POINTS_PER_BYTE,
+    MAX_LAZ_POINTS_PER_BYTE, POINTWISE_CHUNKED,
 };
 use crate::cloud::PointCloud;
-use crate::io::assemble::CloudBuilder;
+use crate::io::assemble::{split_out, CloudBuilder, Out};
 use crate::io::{ReadError, ReadOptions};
 
 /// A file still arriving: a read past what has arrived waits for it.
@@ -785,20 +786,13 @@ where
     let mut at = start.data + 8 + spans.iter().sum::<u64>();
     let mut next = spans.len();
     let threads = crate::io::pool::threads();
-    // A few chunks a thread, as the whole-file read asks for.
-    let per_group = (4 * threads).min((MAX_PARALLEL_BATCH / start.chunk).max(1) as usize);
     let (mut packed, mut raw) = (Vec::new(), Vec::new());
-    while done < count {
+    // The cloud's frame is its first finite point's: until one is in, the chunks go in a few
+    // at a time, as the early read pushes them.
+    while done < count && !b.has_origin() {
         let needed = (count - done).div_ceil(start.chunk) as usize;
-        let group =
-            &entries[next.min(entries.len())..(next + needed.min(per_group)).min(entries.len())];
-        if group.is_empty() {
-            return Err(not_here(name, "the chunk table ends before the points"));
-        }
+        let group = chunks_within(entries, next, needed.min(threads), at, len, name)?;
         let bytes = group.iter().map(|e| e.byte_count).sum::<u64>();
-        if at.saturating_add(bytes) > len {
-            return Err(not_here(name, "the chunks end past the file"));
-        }
         packed.resize(bytes as usize, 0);
         source.seek(SeekFrom::Start(at)).map_err(io)?;
         source.read_exact(&mut packed).map_err(io)?;
@@ -816,6 +810,139 @@ where
         at += bytes;
         next += group.len();
     }
+    if done < count {
+        let needed = (count - done).div_ceil(start.chunk) as usize;
+        let list = chunks_within(entries, next, needed, at, len, name)?;
+        let last = next + list.len() == entries.len();
+        let rest = Rest {
+            list,
+            at,
+            last,
+            points: count - done,
+        };
+        decode_in_place(source, &rest, start, points, b, name)?;
+    }
+    Ok(())
+}
+
+/// The `n` chunks of the table from entry `next` on, whose bytes start at `at`; an error when
+/// the table or the file ends first.
+fn chunks_within<'e>(
+    entries: &'e [ChunkTableEntry],
+    next: usize,
+    n: usize,
+    at: u64,
+    len: u64,
+    name: &str,
+) -> Result<&'e [ChunkTableEntry], ReadError> {
+    let list = &entries[next.min(entries.len())..(next + n).min(entries.len())];
+    if list.len() < n {
+        return Err(not_here(name, "the chunk table ends before the points"));
+    }
+    let bytes = list
+        .iter()
+        .fold(0u64, |s, e| s.saturating_add(e.byte_count));
+    if at.saturating_add(bytes) > len {
+        return Err(not_here(name, "the chunks end past the file"));
+    }
+    Ok(list)
+}
+
+/// The chunks left once the cloud's frame is fixed.
+struct Rest<'e> {
+    list: &'e [ChunkTableEntry],
+    /// Where the first one's bytes start.
+    at: u64,
+    /// Whether the list ends with the table's last chunk (decoded until its bytes end).
+    last: bool,
+    /// The points still to come: the last chunk's records past them are not points.
+    points: u64,
+}
+
+/// Decodes `rest`'s chunks on the pool's threads, each straight into its own stretch of the
+/// cloud's arrays, so no chunk waits for others to finish: chunk `i` takes points from
+/// `i * chunk` on, and the gaps skipped points leave are closed after, as for a block of
+/// uncompressed records.
+fn decode_in_place<R: Read + Seek + Send>(
+    source: R,
+    rest: &Rest<'_>,
+    start: &Start,
+    points: &mut Points<'_>,
+    b: &mut CloudBuilder,
+    name: &str,
+) -> Result<(), ReadError> {
+    let io = |e: std::io::Error| ReadError::io(name, e);
+    let (layout, guard) = (points.layout, points.guard);
+    let (size, chunk) = (layout.size, start.chunk as usize);
+    let total = rest.list.len() * chunk;
+    let mut offsets = Vec::with_capacity(rest.list.len());
+    let mut at = rest.at;
+    for e in rest.list {
+        // Fixed-size chunks: the table gives each one the chunk's points.
+        if e.point_count != start.chunk {
+            return Err(not_here(name, "a chunk of another size"));
+        }
+        offsets.push(at);
+        at += e.byte_count;
+    }
+    room(b, points.written + total, layout.time.is_some());
+    let origin = b.origin().unwrap_or_default();
+    let source = Mutex::new(source);
+    // Made here, not on the pool's threads: freed or grown there, in those threads' malloc
+    // arenas, they were handed back to the kernel and faulted in again for every chunk.
+    let most = rest.list.iter().map(|e| e.byte_count).max().unwrap_or(0) as usize;
+    let threads = crate::io::pool::threads();
+    let shelf = (0..threads)
+        .map(|_| (Vec::with_capacity(most), Vec::with_capacity(chunk * size)))
+        .collect::<Vec<(Vec<u8>, Vec<u8>)>>();
+    let shelf = Mutex::new(shelf);
+    let out = Out::of(b.cloud_mut(), points.written, total);
+    let pieces = split_out(out.xyz, out.scan, out.time, chunk)
+        .into_par_iter()
+        .zip(rest.list.par_iter().zip(&offsets))
+        .enumerate()
+        .map(|(i, (out, (e, &at)))| {
+            // Buffers go back on the shelf: fresh ones would have their pages faulted in again.
+            let lock = || shelf.lock().unwrap_or_else(|p| p.into_inner());
+            let (mut packed, mut raw) = lock().pop().unwrap_or_default();
+            packed.resize(e.byte_count as usize, 0);
+            let read = {
+                let mut s = source.lock().unwrap_or_else(|p| p.into_inner());
+                s.seek(SeekFrom::Start(at))
+                    .and_then(|_| s.read_exact(&mut packed))
+            };
+            raw.resize(chunk * size, 0);
+            let until_end = rest.last && i + 1 == rest.list.len();
+            let decoded = read.map_err(io).and_then(|()| {
+                catch_unwind(AssertUnwindSafe(|| {
+                    decode_chunk(&packed, &mut raw, &start.vlr, until_end, size)
+                }))
+                .map_err(|_| not_here(name, "the decoder failed"))?
+                .map_err(io)
+            });
+            let piece = decoded.map(|short| {
+                let before = (i * chunk) as u64;
+                let take = (chunk - short).min(rest.points.saturating_sub(before) as usize);
+                let piece = decode_las_piece(layout, guard, &raw[..take * size], origin, out);
+                (piece, take as u64)
+            });
+            lock().push((packed, raw));
+            piece
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .collect::<Result<Vec<_>, ReadError>>()?;
+    // Only the table's last chunk may come short, and then the points are missing.
+    if pieces.iter().map(|p| p.1).sum::<u64>() < rest.points {
+        return Err(not_here(name, "the chunk table ends before the points"));
+    }
+    let pieces: Vec<_> = pieces.into_iter().map(|p| p.0).collect();
+    let (kept, outside) = settle_las_pieces(b, points.written, total, chunk, &pieces)
+        .map_err(|why| ReadError::named(name, "laz", why))?;
+    if outside > 0 {
+        return Err(not_here(name, "points outside the header's bounding box"));
+    }
+    points.written += kept;
     Ok(())
 }
 
@@ -842,17 +969,27 @@ fn decode_chunks(
     }
     let short = jobs
         .into_par_iter()
-        .map(|(chunk, out, until_end)| {
-            let mut dec = chunk_decoder(vlr, Cursor::new(chunk))?;
-            if until_end {
-                let n = dec.decompress_until_end_of_file(out)?;
-                Ok((out.len() - n) / size)
-            } else {
-                dec.decompress_many(out).map(|_| 0)
-            }
-        })
+        .map(|(chunk, out, until_end)| decode_chunk(chunk, out, vlr, until_end, size))
         .collect::<std::io::Result<Vec<usize>>>()?;
     Ok(points - short.iter().sum::<usize>() as u64)
+}
+
+/// Decodes one chunk's bytes into the records `out`; the table's last chunk (`until_end`) until
+/// its bytes end, as the parallel reader decodes it. Returns how many records it came short.
+fn decode_chunk(
+    chunk: &[u8],
+    out: &mut [u8],
+    vlr: &LazVlr,
+    until_end: bool,
+    size: usize,
+) -> std::io::Result<usize> {
+    let mut dec = chunk_decoder(vlr, Cursor::new(chunk))?;
+    if until_end {
+        let n = dec.decompress_until_end_of_file(out)?;
+        Ok((out.len() - n) / size)
+    } else {
+        dec.decompress_many(out).map(|_| 0)
+    }
 }
 
 /// A record decompressor for one chunk, as the `laz` crate makes it for the items' version.
