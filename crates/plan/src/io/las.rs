@@ -1311,40 +1311,22 @@ mod tests {
         crate::io::export::write_las(&path, &c, true).unwrap();
         let bytes = std::fs::read(&path).unwrap();
         let len = bytes.len() as u64;
-        let options = ReadOptions::default();
-        let serial = read_las_with(
-            Cursor::new(bytes.clone()),
-            len,
-            "t.laz",
-            &options,
-            false,
-            None,
-        )
-        .unwrap();
-        let straight =
-            arriving::read_laz_whole(&mut Cursor::new(bytes.clone()), len, "t.laz", &options)
-                .expect("fixed-size chunks are decoded straight into the cloud");
-        assert_eq!(serial.len(), n);
-        assert_eq!(serial.scan_ids, [30, 3, 7, 25, 19, 11]);
-        assert_same(&serial, &straight);
-        // Without times, too (the records are the same; only the arrays differ).
-        let options = ReadOptions {
-            keep_time: false,
-            ..ReadOptions::default()
-        };
-        let serial = read_las_with(
-            Cursor::new(bytes.clone()),
-            len,
-            "t.laz",
-            &options,
-            false,
-            None,
-        )
-        .unwrap();
-        let straight =
-            arriving::read_laz_whole(&mut Cursor::new(bytes), len, "t.laz", &options).unwrap();
-        assert!(straight.time.is_empty());
-        assert_same(&serial, &straight);
+        // With and without times (the records are the same; only the arrays differ).
+        for keep_time in [true, false] {
+            let options = ReadOptions {
+                keep_time,
+                ..ReadOptions::default()
+            };
+            let source = Cursor::new(bytes.clone());
+            let serial = read_las_with(source, len, "t.laz", &options, false, None).unwrap();
+            let straight =
+                arriving::read_laz_whole(&mut Cursor::new(bytes.clone()), len, "t.laz", &options)
+                    .expect("fixed-size chunks are decoded straight into the cloud");
+            assert_eq!(serial.len(), n);
+            assert_eq!(serial.scan_ids, [30, 3, 7, 25, 19, 11]);
+            assert_eq!(straight.time.is_empty(), !keep_time);
+            assert_same(&serial, &straight);
+        }
     }
 
     /// Two reads of one file gave the same cloud, bit for bit.
