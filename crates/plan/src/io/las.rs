@@ -1297,9 +1297,10 @@ mod tests {
 
     #[test]
     fn laz_chunks_decoded_in_place_give_the_serial_reads_scans_in_its_order() {
-        // Chunks of 50 000 points decoded each straight into its stretch of the cloud: scans
-        // first seen in later chunks (chunks 3 and 6, after the first group) must still take
-        // their slots in file order, and the short last chunk must end the cloud.
+        // Chunks of 50 000 points decoded each straight into its stretch of the cloud, in
+        // windows of five chunks in the tests: scans first seen in later chunks (chunks 3 and
+        // 6, after the first group, in two windows) must still take their slots in file order,
+        // and the short last chunk must end the cloud.
         let n = 450_001;
         let mut c = cloud(n);
         c.scan_ids = vec![30, 7, 19, 3, 25, 11];

@@ -34,7 +34,7 @@ use rayon::prelude::*;
 use super::{
     check_header, decode_las_block, decode_las_piece, finish_las, layered_shape, settle_las_pieces,
     BoundsGuard, Layout, CHUNK, LAYERED_CHUNKED, LAZ_RESERVE_POINTS_PER_BYTE,
-    MAX_LAZ_POINTS_PER_BYTE, POINTWISE_CHUNKED,
+    MAX_LAZ_POINTS_PER_BYTE, MAX_PARALLEL_BATCH, POINTWISE_CHUNKED,
 };
 use crate::cloud::PointCloud;
 use crate::io::assemble::{split_out, CloudBuilder, Out};
@@ -58,6 +58,15 @@ const MAX_CHUNK: u64 = 1 << 20;
 
 /// Headers and VLRs larger than this are left to the whole-file read: they are held in memory.
 const MAX_HEAD: u64 = 16 << 20;
+
+/// The most points decoded in place between two waits for every chunk to be in: it bounds the
+/// buffers of records (one a chunk decoded at once). Small in the tests, so that they cross
+/// windows.
+const WINDOW: u64 = if cfg!(test) {
+    1 << 18
+} else {
+    MAX_PARALLEL_BATCH
+};
 
 /// The most bytes of records the second lane holds before the first lane has reached them.
 const MAX_HELD: usize = 64 << 20;
@@ -862,7 +871,8 @@ struct Rest<'e> {
 /// Decodes `rest`'s chunks on the pool's threads, each straight into its own stretch of the
 /// cloud's arrays, so no chunk waits for others to finish: chunk `i` takes points from
 /// `i * chunk` on, and the gaps skipped points leave are closed after, as for a block of
-/// uncompressed records.
+/// uncompressed records. The chunks go in windows of at most [`WINDOW`] points,
+/// so a few buffers of records serve them all however large the chunks and many the threads.
 fn decode_in_place<R: Read + Seek + Send>(
     source: R,
     rest: &Rest<'_>,
@@ -871,10 +881,7 @@ fn decode_in_place<R: Read + Seek + Send>(
     b: &mut CloudBuilder,
     name: &str,
 ) -> Result<(), ReadError> {
-    let io = |e: std::io::Error| ReadError::io(name, e);
-    let (layout, guard) = (points.layout, points.guard);
-    let (size, chunk) = (layout.size, start.chunk as usize);
-    let total = rest.list.len() * chunk;
+    let (size, chunk) = (points.layout.size, start.chunk as usize);
     let mut offsets = Vec::with_capacity(rest.list.len());
     let mut at = rest.at;
     for e in rest.list {
@@ -885,65 +892,127 @@ fn decode_in_place<R: Read + Seek + Send>(
         offsets.push(at);
         at += e.byte_count;
     }
-    room(b, points.written + total, layout.time.is_some());
-    let origin = b.origin().unwrap_or_default();
-    let source = Mutex::new(source);
-    // Made here, not on the pool's threads: freed or grown there, in those threads' malloc
-    // arenas, they were handed back to the kernel and faulted in again for every chunk.
+    let window = (WINDOW / start.chunk).max(1) as usize;
+    // One pair of buffers a chunk decoded at once, made up front and handed from chunk to
+    // chunk, so their pages are faulted in once.
     let most = rest.list.iter().map(|e| e.byte_count).max().unwrap_or(0) as usize;
-    let threads = crate::io::pool::threads();
-    let shelf = (0..threads)
+    let busy = crate::io::pool::threads().min(window).min(rest.list.len());
+    let shelf = (0..busy)
         .map(|_| (Vec::with_capacity(most), Vec::with_capacity(chunk * size)))
         .collect::<Vec<(Vec<u8>, Vec<u8>)>>();
-    let shelf = Mutex::new(shelf);
-    let out = Out::of(b.cloud_mut(), points.written, total);
-    let pieces = split_out(out.xyz, out.scan, out.time, chunk)
-        .into_par_iter()
-        .zip(rest.list.par_iter().zip(&offsets))
-        .enumerate()
-        .map(|(i, (out, (e, &at)))| {
-            // Buffers go back on the shelf: fresh ones would have their pages faulted in again.
-            let lock = || shelf.lock().unwrap_or_else(|p| p.into_inner());
-            let (mut packed, mut raw) = lock().pop().unwrap_or_default();
-            packed.resize(e.byte_count as usize, 0);
-            let read = {
-                let mut s = source.lock().unwrap_or_else(|p| p.into_inner());
-                s.seek(SeekFrom::Start(at))
-                    .and_then(|_| s.read_exact(&mut packed))
-            };
-            raw.resize(chunk * size, 0);
-            let until_end = rest.last && i + 1 == rest.list.len();
-            let decoded = read.map_err(io).and_then(|()| {
-                catch_unwind(AssertUnwindSafe(|| {
-                    decode_chunk(&packed, &mut raw, &start.vlr, until_end, size)
-                }))
-                .map_err(|_| not_here(name, "the decoder failed"))?
-                .map_err(io)
-            });
-            let piece = decoded.map(|short| {
-                let before = (i * chunk) as u64;
-                let take = (chunk - short).min(rest.points.saturating_sub(before) as usize);
-                let piece = decode_las_piece(layout, guard, &raw[..take * size], origin, out);
-                (piece, take as u64)
-            });
-            lock().push((packed, raw));
-            piece
-        })
-        .collect::<Vec<_>>()
-        .into_iter()
-        .collect::<Result<Vec<_>, ReadError>>()?;
+    let job = Job {
+        source: Mutex::new(source),
+        size,
+        shelf: Mutex::new(shelf),
+        rest,
+        start,
+        name,
+    };
+    let mut taken = 0;
+    for (w, list) in rest.list.chunks(window).enumerate() {
+        let first = w * window;
+        taken += job.window(first, list.len(), &offsets[first..], points, b)?;
+    }
     // Only the table's last chunk may come short, and then the points are missing.
-    if pieces.iter().map(|p| p.1).sum::<u64>() < rest.points {
+    if taken < rest.points {
         return Err(not_here(name, "the chunk table ends before the points"));
     }
-    let pieces: Vec<_> = pieces.into_iter().map(|p| p.0).collect();
-    let (kept, outside) = settle_las_pieces(b, points.written, total, chunk, &pieces)
-        .map_err(|why| ReadError::named(name, "laz", why))?;
-    if outside > 0 {
-        return Err(not_here(name, "points outside the header's bounding box"));
-    }
-    points.written += kept;
     Ok(())
+}
+
+/// What every chunk of [`decode_in_place`] shares.
+struct Job<'a, R> {
+    source: Mutex<R>,
+    /// A record's bytes.
+    size: usize,
+    shelf: Mutex<Vec<(Vec<u8>, Vec<u8>)>>,
+    rest: &'a Rest<'a>,
+    start: &'a Start,
+    name: &'a str,
+}
+
+impl<R: Read + Seek + Send> Job<'_, R> {
+    /// Decodes the `n` chunks of the rest from chunk `first` on, whose bytes start at
+    /// `offsets`, into the cloud; returns the records taken.
+    fn window(
+        &self,
+        first: usize,
+        n: usize,
+        offsets: &[u64],
+        points: &mut Points<'_>,
+        b: &mut CloudBuilder,
+    ) -> Result<u64, ReadError> {
+        let (layout, guard) = (points.layout, points.guard);
+        let chunk = self.start.chunk as usize;
+        let total = n * chunk;
+        room(b, points.written + total, layout.time.is_some());
+        let origin = b.origin().unwrap_or_default();
+        let out = Out::of(b.cloud_mut(), points.written, total);
+        let pieces = split_out(out.xyz, out.scan, out.time, chunk)
+            .into_par_iter()
+            .zip(&self.rest.list[first..first + n])
+            .zip(offsets)
+            .enumerate()
+            .map(|(k, ((out, e), &at))| {
+                let i = first + k;
+                let lock = || self.shelf.lock().unwrap_or_else(|p| p.into_inner());
+                let (mut packed, mut raw) = lock().pop().unwrap_or_default();
+                let decoded = self.decode(i, e, at, &mut packed, &mut raw);
+                let piece = decoded.map(|short| {
+                    let before = (i * chunk) as u64;
+                    let take =
+                        (chunk - short).min(self.rest.points.saturating_sub(before) as usize);
+                    let recs = &raw[..take * layout.size];
+                    (
+                        decode_las_piece(layout, guard, recs, origin, out),
+                        take as u64,
+                    )
+                });
+                lock().push((packed, raw));
+                piece
+            })
+            .collect::<Result<Vec<_>, ReadError>>()?;
+        let taken = pieces.iter().map(|p| p.1).sum();
+        let pieces: Vec<_> = pieces.into_iter().map(|p| p.0).collect();
+        let (kept, outside) = settle_las_pieces(b, points.written, total, chunk, &pieces)
+            .map_err(|why| ReadError::named(self.name, "laz", why))?;
+        if outside > 0 {
+            return Err(not_here(
+                self.name,
+                "points outside the header's bounding box",
+            ));
+        }
+        points.written += kept;
+        Ok(taken)
+    }
+
+    /// Reads chunk `i` (table entry `e`, from byte `at`) into `packed` and decodes its records
+    /// into `raw`; returns how many records it came short.
+    fn decode(
+        &self,
+        i: usize,
+        e: &ChunkTableEntry,
+        at: u64,
+        packed: &mut Vec<u8>,
+        raw: &mut Vec<u8>,
+    ) -> Result<usize, ReadError> {
+        let io = |e: std::io::Error| ReadError::io(self.name, e);
+        packed.resize(e.byte_count as usize, 0);
+        {
+            let mut s = self.source.lock().unwrap_or_else(|p| p.into_inner());
+            s.seek(SeekFrom::Start(at)).map_err(io)?;
+            s.read_exact(packed).map_err(io)?;
+        }
+        let size = self.size;
+        raw.resize(self.start.chunk as usize * size, 0);
+        let until_end = self.rest.last && i + 1 == self.rest.list.len();
+        // The decoder asserts on some damaged chunks.
+        catch_unwind(AssertUnwindSafe(|| {
+            decode_chunk(packed, raw, &self.start.vlr, until_end, size)
+        }))
+        .map_err(|_| not_here(self.name, "the decoder failed"))?
+        .map_err(io)
+    }
 }
 
 /// Decodes the chunks `packed` holds, described by `group`, in parallel into `raw`; the table's
