@@ -480,7 +480,10 @@ try {
     await page.evaluate(() => window.scrollTo(0, document.body.scrollHeight));
     await page.locator("#jobs li[data-id] button.open").first().tap();
     await until(page, () => $("plan").dataset.drawn === "true");
-    await page.waitForTimeout(300);
+    // The tapped job's plan is fetched, drawn, then scrolled to: on a loaded machine that can
+    // take longer than any fixed pause, so wait for it (the check below still fails if never).
+    const shown = () => Math.abs($("plansec").getBoundingClientRect().top) < 50;
+    await until(page, shown, undefined, 10000).catch(() => {});
     seen.planTop = await page.evaluate(() => $("plansec").getBoundingClientRect().top);
     await check(Math.abs(seen.planTop) < 50, "tapping a job did not bring its plan into view: " + seen.planTop);
     await page.locator("#plan").scrollIntoViewIfNeeded();
