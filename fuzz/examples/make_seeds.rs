@@ -130,6 +130,70 @@ fn las_seeds(c: &PointCloud) {
         }
         w.close().unwrap();
     }
+    small_chunks_laz(&out("las", "laz12-chunks4.laz"));
+}
+
+/// A LAZ of 60 points in 15 chunks of 4, small enough for the fuzzer's inputs: the parallel
+/// reader decodes the first group of chunks together and the rest each straight into place,
+/// which the exporter's 50,000-point chunks never reach in a small file. Made from the `las`
+/// crate's uncompressed file: its records compressed by `laz`, and a LASzip record added.
+fn small_chunks_laz(path: &Path) {
+    let mut b = las::Builder::from((1, 2));
+    b.point_format = las::point::Format::new(1).unwrap();
+    let tmp = std::env::temp_dir().join("asbuilt-seed-plain.las");
+    {
+        let mut w = las::Writer::from_path(&tmp, b.into_header().unwrap()).unwrap();
+        for i in 0..60 {
+            let f = f64::from(i);
+            w.write_point(las::Point {
+                x: f * 0.05,
+                y: (f * 0.3).sin(),
+                z: f * 0.02,
+                point_source_id: (i / 20) as u16,
+                gps_time: Some(f * 0.01),
+                return_number: 1,
+                number_of_returns: 1,
+                ..Default::default()
+            })
+            .unwrap();
+        }
+        w.close().unwrap();
+    }
+    let plain = std::fs::read(&tmp).unwrap();
+    let u16_at = |at: usize| u16::from_le_bytes([plain[at], plain[at + 1]]);
+    let u32_at = |at: usize| u32::from_le_bytes(plain[at..at + 4].try_into().unwrap());
+    // LAS 1.2 header fields: header size, offset to the points, VLR count, record length.
+    let (head, data) = (usize::from(u16_at(94)), u32_at(96) as usize);
+    let (vlrs, size) = (u32_at(100), u16_at(105));
+    let vlr = laz::LazVlrBuilder::default()
+        .with_point_format(1, size - 28)
+        .unwrap()
+        .with_fixed_chunk_size(4)
+        .build();
+    let mut record = Vec::new();
+    vlr.write_to(&mut record).unwrap();
+    let mut file = plain[..data].to_vec();
+    let vlr_len = 54 + record.len();
+    file[96..100].copy_from_slice(&((data + vlr_len) as u32).to_le_bytes());
+    file[100..104].copy_from_slice(&(vlrs + 1).to_le_bytes());
+    file[104] |= 0x80;
+    file.extend(0u16.to_le_bytes());
+    file.extend(b"laszip encoded\0\0");
+    file.extend(22204u16.to_le_bytes());
+    file.extend((record.len() as u16).to_le_bytes());
+    file.extend([0u8; 32]);
+    file.extend(&record);
+    // The LASzip record goes right after the header: the writer put no records and no gap there.
+    assert_eq!((vlrs, head, file.len()), (0, data, data + vlr_len));
+    // The compressor writes the chunk table's offset as a position in its output: it writes
+    // after the header, so that is the position in the file.
+    let mut out = std::io::Cursor::new(file);
+    out.set_position(out.get_ref().len() as u64);
+    let mut packed = laz::LasZipCompressor::new(out, vlr).unwrap();
+    packed.compress_many(&plain[data..]).unwrap();
+    packed.done().unwrap();
+    let file = packed.into_inner().into_inner();
+    std::fs::write(path, file).unwrap();
 }
 
 fn xyz_seeds(c: &PointCloud) {

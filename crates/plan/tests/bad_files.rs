@@ -698,6 +698,32 @@ fn fuzz_findings_stay_fixed() {
     assert!(n >= 1, "the findings are in {}", dir.display());
 }
 
+/// Two of the fuzz findings, refused by what is wrong with them: a header whose record length
+/// is not its LASzip items', and a chunk table of fixed-size chunks too short for the header's
+/// point count (both reached assertions in the `laz` decoder).
+#[test]
+fn laz_headers_that_disagree_with_their_items_or_chunk_table_are_named() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz_regressions");
+    let cases: [(&str, &[&str]); 2] = [
+        (
+            "las-panic-record-length.laz",
+            &[
+                "point items make 28-byte records",
+                "the header says 24604 bytes",
+            ],
+        ),
+        (
+            "las-panic-short-chunk-table.laz",
+            &["15 chunks hold 60 points, fewer than the 188"],
+        ),
+    ];
+    for (file, want) in cases {
+        let path = dir.join(file);
+        let err = io::read_cloud(&path).expect_err("a fuzz finding must not read");
+        check(&path, &err, "(laz)", want);
+    }
+}
+
 // ---------------------------------------------------------------- XYZ and PTS
 
 #[test]

@@ -633,7 +633,13 @@ fn check_header<R: Read + Seek>(
         let laszip = laszip_items(source, &raw, name)?;
         // Variable-sized chunks (chunk size 0 or u32::MAX) take their point counts from the table.
         let variable = matches!(&laszip, Some((_, 0 | u32::MAX, _)));
-        let table = check_chunk_table(source, start, len, points, variable, name)?;
+        let fixed = match &laszip {
+            Some((POINTWISE_CHUNKED | LAYERED_CHUNKED, size, _)) if !variable => {
+                Some(u64::from(*size))
+            }
+            _ => None,
+        };
+        let table = check_chunk_table(source, start, len, points, variable, fixed, name)?;
         // Only the chunked compressors (1 is point-wise, 2 and 3 chunked) decode in parallel.
         if let Some((POINTWISE_CHUNKED | LAYERED_CHUNKED, size, _)) = &laszip {
             if table {
@@ -649,6 +655,21 @@ fn check_header<R: Read + Seek>(
                     name,
                     "laz",
                     "the LASzip VLR lists no point items, so nothing can be decoded",
+                ))
+            }
+            // The decoder writes records of its items' size into buffers of the header's
+            // record length, and asserts that they fit a whole number of times.
+            Some((_, _, items)) if record_of(&items) != u64::from(raw.point_data_record_length) => {
+                return Err(ReadError::at(
+                    name,
+                    "laz",
+                    format!(
+                        "the LASzip VLR's point items make {}-byte records, but the header says \
+                         {} bytes",
+                        record_of(&items),
+                        raw.point_data_record_length
+                    ),
+                    "byte 105",
                 ))
             }
             Some((LAYERED_CHUNKED, _, items)) => {
@@ -737,12 +758,14 @@ fn check_transforms(
 
 /// LAZ keeps a chunk table whose entry count the decoder allocates from. Returns true when the
 /// table is whole and consistent with the file, so the chunks can be decoded in parallel.
+/// Chunks of `fixed` points (a chunked compressor's) must cover the header's points too.
 fn check_chunk_table<R: Read + Seek>(
     source: &mut R,
     start: u64,
     len: u64,
     points: u64,
     variable: bool,
+    fixed: Option<u64>,
     name: &str,
 ) -> Result<bool, ReadError> {
     let io = |e: std::io::Error| ReadError::io(name, e);
@@ -793,11 +816,15 @@ fn check_chunk_table<R: Read + Seek>(
     }
     // The parallel decoder reads the table too, and allocates from its byte and point counts.
     source.seek(SeekFrom::Start(table)).map_err(io)?;
-    let entries = match laz::laszip::ChunkTable::read(source, variable) {
-        Ok(entries) => entries,
+    // A variable-size table is itself compressed, and its decoder panics on some damaged ones.
+    let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        laz::laszip::ChunkTable::read(&mut *source, variable)
+    }));
+    let entries = match read {
+        Ok(Ok(entries)) => entries,
         // The sequential decoder of fixed-size chunks never reads the table.
-        Err(_) if !variable => return Ok(false),
-        Err(e) => {
+        Ok(Err(_)) | Err(_) if !variable => return Ok(false),
+        Ok(Err(e)) => {
             return Err(ReadError::at(
                 name,
                 "laz",
@@ -805,23 +832,38 @@ fn check_chunk_table<R: Read + Seek>(
                 format!("byte {table}"),
             ))
         }
-    };
-    if variable {
-        // The decoder indexes the table by chunk without checking: it must cover every point.
-        let covered = entries
-            .as_ref()
-            .iter()
-            .fold(0u64, |n, e| n.saturating_add(e.point_count));
-        if covered < points {
+        Err(panic) => {
             return Err(ReadError::at(
                 name,
                 "laz",
                 format!(
-                    "the chunk table's {chunks} chunks hold {covered} points, fewer than the {points} the header claims"
+                    "the chunk table cannot be read: it is damaged ({})",
+                    super::panic_text(&panic)
                 ),
                 format!("byte {table}"),
-            ));
+            ))
         }
+    };
+    // The parallel decoder takes only the table's chunks: they must cover every point.
+    let covered = match fixed {
+        _ if variable => Some(
+            entries
+                .as_ref()
+                .iter()
+                .fold(0u64, |n, e| n.saturating_add(e.point_count)),
+        ),
+        Some(size) => Some(chunks.saturating_mul(size)),
+        None => None,
+    };
+    if let Some(covered) = covered.filter(|&c| c < points) {
+        return Err(ReadError::at(
+            name,
+            "laz",
+            format!(
+                "the chunk table's {chunks} chunks hold {covered} points, fewer than the {points} the header claims"
+            ),
+            format!("byte {table}"),
+        ));
     }
     let bytes = entries
         .as_ref()
@@ -832,6 +874,11 @@ fn check_chunk_table<R: Read + Seek>(
         .iter()
         .all(|e| e.point_count <= points.max(1) && e.byte_count <= len);
     Ok(sane && bytes <= table.saturating_sub(start))
+}
+
+/// The bytes of a record of point items (type, size).
+fn record_of(items: &[(u16, u16)]) -> u64 {
+    items.iter().map(|&(_, size)| u64::from(size)).sum()
 }
 
 /// The compressor, chunk size and item list (type, size) of a LAZ file's LASzip VLR; `None`

@@ -285,9 +285,14 @@ impl Points<'_> {
     fn push(&mut self, b: &mut CloudBuilder, recs: &[u8], parts: usize) -> Result<(), ReadError> {
         let n = recs.len() / self.layout.size;
         room(b, self.written + n, self.layout.time.is_some());
-        let (kept, outside) =
-            decode_las_block(b, self.layout, self.guard, recs, self.written, parts)
-                .map_err(|why| ReadError::named(self.name, "laz", why))?;
+        let settled = decode_las_block(b, self.layout, self.guard, recs, self.written, parts);
+        self.settle(settled)
+    }
+
+    /// Counts a settled block's kept points as written, or fails the read with why it could
+    /// not settle; a point outside the header's bounds fails it too.
+    fn settle(&mut self, settled: Result<(usize, u64), String>) -> Result<(), ReadError> {
+        let (kept, outside) = settled.map_err(|why| ReadError::named(self.name, "laz", why))?;
         if outside > 0 {
             return Err(not_here(
                 self.name,
@@ -974,15 +979,7 @@ impl<R: Read + Seek + Send> Job<'_, R> {
             .collect::<Result<Vec<_>, ReadError>>()?;
         let taken = pieces.iter().map(|p| p.1).sum();
         let pieces: Vec<_> = pieces.into_iter().map(|p| p.0).collect();
-        let (kept, outside) = settle_las_pieces(b, points.written, total, chunk, &pieces)
-            .map_err(|why| ReadError::named(self.name, "laz", why))?;
-        if outside > 0 {
-            return Err(not_here(
-                self.name,
-                "points outside the header's bounding box",
-            ));
-        }
-        points.written += kept;
+        points.settle(settle_las_pieces(b, points.written, total, chunk, &pieces))?;
         Ok(taken)
     }
 
