@@ -816,7 +816,7 @@ fn check_chunk_table<R: Read + Seek>(
     }
     // The parallel decoder reads the table too, and allocates from its byte and point counts.
     source.seek(SeekFrom::Start(table)).map_err(io)?;
-    // A variable-size table is itself compressed, and its decoder panics on some damaged ones.
+    // The table is itself compressed, and its decoder panics on some damaged ones.
     let read = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         laz::laszip::ChunkTable::read(&mut *source, variable)
     }));

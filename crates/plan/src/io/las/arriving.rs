@@ -32,8 +32,8 @@ use laz::{LazItem, LazVlr};
 use rayon::prelude::*;
 
 use super::{
-    check_header, decode_las_block, decode_las_piece, finish_las, layered_shape, settle_las_pieces,
-    BoundsGuard, Layout, CHUNK, LAYERED_CHUNKED, LAZ_RESERVE_POINTS_PER_BYTE,
+    check_header, decode_las_block, decode_las_piece, finish_las, layered_shape, record_of,
+    settle_las_pieces, BoundsGuard, Layout, CHUNK, LAYERED_CHUNKED, LAZ_RESERVE_POINTS_PER_BYTE,
     MAX_LAZ_POINTS_PER_BYTE, MAX_PARALLEL_BATCH, POINTWISE_CHUNKED,
 };
 use crate::cloud::PointCloud;
@@ -237,7 +237,7 @@ impl Start {
             .iter()
             .map(|i: &LazItem| (u16::from(i.item_type()), i.size()))
             .collect();
-        let record: u64 = items.iter().map(|&(_, size)| u64::from(size)).sum();
+        let record = record_of(&items);
         let versions_ok = match compressor {
             POINTWISE_CHUNKED => vlr.items().iter().all(|i| matches!(i.version(), 1 | 2)),
             LAYERED_CHUNKED => vlr.items().iter().all(|i| matches!(i.version(), 3 | 4)),
