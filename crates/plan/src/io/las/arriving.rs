@@ -24,6 +24,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
+use laz::las::selective::DecompressionSelection;
 use laz::laszip::{ChunkTable, ChunkTableEntry};
 use laz::record::{
     LayeredPointRecordDecompressor, RecordDecompressor, SequentialPointRecordDecompressor,
@@ -152,7 +153,7 @@ fn read_counted<R>(
 where
     R: Arriving + Send + Sync,
 {
-    let start = Start::read(&mut source, len, name)?;
+    let start = Start::read(&mut source, len, name, options.keep_time)?;
     let layout = Layout::new(&start.header, options.keep_time);
     let guard = BoundsGuard::new(&start.header);
     let count = start.header.number_of_points();
@@ -191,7 +192,7 @@ fn not_here(name: &str, why: impl std::fmt::Display) -> ReadError {
 /// What the front of the file says.
 struct Start {
     header: las::Header,
-    vlr: LazVlr,
+    codec: Codec,
     /// Where the point data starts (its first 8 bytes are the chunk table's offset).
     data: u64,
     chunk: u64,
@@ -201,7 +202,13 @@ struct Start {
 
 impl Start {
     /// Reads the header and VLRs (waiting for them) and refuses what this read does not decode.
-    fn read<R: Read + Seek>(source: &mut R, len: u64, name: &str) -> Result<Start, ReadError> {
+    /// The points' times are decoded only when `keep_time` asks for them.
+    fn read<R: Read + Seek>(
+        source: &mut R,
+        len: u64,
+        name: &str,
+        keep_time: bool,
+    ) -> Result<Start, ReadError> {
         let io = |e: std::io::Error| ReadError::io(name, e);
         let raw = las::raw::Header::read_from(&mut *source)
             .map_err(|e| ReadError::at(name, "laz", e.to_string(), "byte 0"))?;
@@ -263,7 +270,7 @@ impl Start {
         }
         Ok(Start {
             header,
-            vlr,
+            codec: Codec::new(vlr, keep_time),
             data,
             chunk,
             layered: layered.filter(|_| compressor == LAYERED_CHUNKED),
@@ -388,7 +395,7 @@ where
     // Past the chunk table's offset, the first chunk.
     let mut at = start.data + 8;
     source.seek(SeekFrom::Start(at)).map_err(io)?;
-    let mut lane = Lane::new(source, at, &start.vlr).map_err(io)?;
+    let mut lane = Lane::new(source, at, &start.codec).map_err(io)?;
     let size = points.layout.size;
     let mut raw = Vec::new();
     // A layered chunk says where it ends; a point-wise one opens with a record as it is,
@@ -410,7 +417,7 @@ where
                 .find_start(
                     at + waiting / 2,
                     2 * typical,
-                    &start.vlr,
+                    &start.codec,
                     points.layout,
                     points.guard,
                 )
@@ -454,7 +461,7 @@ where
             at += bytes;
             second_lane += 1;
         }
-        lane = lane.jump(at, &start.vlr).map_err(io)?;
+        lane = lane.jump(at, &start.codec).map_err(io)?;
     }
     Ok((lane.into_source(), spans, second_lane))
 }
@@ -473,7 +480,7 @@ fn front_chunk<'a, R: Arriving + Send + Sync + 'a>(
     if let Some((layers, first)) = start.layered {
         lane.layered_end(layers, first, len, name)?;
     }
-    lane.chunk(start.chunk, &start.vlr, |r| points.push(b, r, 1), raw)
+    lane.chunk(start.chunk, &start.codec, |r| points.push(b, r, 1), raw)
         .map_err(|e| e.into_error(name))
 }
 
@@ -502,13 +509,13 @@ struct Lane<'a, R> {
 
 impl<'a, R: Arriving + Send + Sync + 'a> Lane<'a, R> {
     /// A lane from byte `at` of `source`, which stands there.
-    fn new(source: R, at: u64, vlr: &LazVlr) -> std::io::Result<Lane<'a, R>> {
+    fn new(source: R, at: u64, codec: &Codec) -> std::io::Result<Lane<'a, R>> {
         let front = Front {
             buf: BufReader::with_capacity(1 << 16, source),
             at,
         };
         Ok(Lane {
-            dec: chunk_decoder(vlr, front)?,
+            dec: codec.decoder(front)?,
         })
     }
 
@@ -551,13 +558,13 @@ impl<'a, R: Arriving + Send + Sync + 'a> Lane<'a, R> {
     }
 
     /// The lane going on from byte `at`, a chunk's start.
-    fn jump(self, at: u64, vlr: &LazVlr) -> std::io::Result<Lane<'a, R>> {
+    fn jump(self, at: u64, codec: &Codec) -> std::io::Result<Lane<'a, R>> {
         if at == self.at() {
             return Ok(self);
         }
         let mut source = self.into_source();
         source.seek(SeekFrom::Start(at))?;
-        Lane::new(source, at, vlr)
+        Lane::new(source, at, codec)
     }
 
     fn into_source(self) -> R {
@@ -569,15 +576,12 @@ impl<'a, R: Arriving + Send + Sync + 'a> Lane<'a, R> {
     fn chunk(
         &mut self,
         chunk: u64,
-        vlr: &LazVlr,
+        codec: &Codec,
         mut take: impl FnMut(&[u8]) -> Result<(), ReadError>,
         raw: &mut Vec<u8>,
     ) -> Result<u64, ChunkError> {
         let from = self.at();
-        self.dec.reset();
-        self.dec
-            .set_fields_from(vlr.items())
-            .map_err(|e| ChunkError::Io(std::io::Error::other(e)))?;
+        codec.restart(&mut *self.dec).map_err(ChunkError::Io)?;
         let size = self.dec.record_size();
         let mut left = chunk;
         while left > 0 {
@@ -621,7 +625,7 @@ impl<'a, R: Arriving + Send + Sync + 'a> Lane<'a, R> {
         &self,
         from: u64,
         window: u64,
-        vlr: &LazVlr,
+        codec: &Codec,
         layout: &Layout,
         guard: &BoundsGuard,
     ) -> std::io::Result<Option<u64>> {
@@ -634,7 +638,7 @@ impl<'a, R: Arriving + Send + Sync + 'a> Lane<'a, R> {
         peek.seek(SeekFrom::Start(from))?;
         peek.read_exact(&mut bytes)?;
         let last = (window as usize).min(bytes.len());
-        Ok(chunk_start_after(&bytes, last, vlr, layout, guard).map(|k| from + k as u64))
+        Ok(chunk_start_after(&bytes, last, codec, layout, guard).map(|k| from + k as u64))
     }
 }
 
@@ -654,7 +658,7 @@ const PROBE_BYTES: u64 = 16 << 10;
 fn chunk_start_after(
     bytes: &[u8],
     last: usize,
-    vlr: &LazVlr,
+    codec: &Codec,
     layout: &Layout,
     guard: &BoundsGuard,
 ) -> Option<usize> {
@@ -666,7 +670,7 @@ fn chunk_start_after(
     let sound = |k: usize| {
         let mut recs = vec![0u8; PROBE * size];
         let decoded = catch_unwind(AssertUnwindSafe(|| {
-            let mut dec = chunk_decoder(vlr, Cursor::new(&bytes[k..]))?;
+            let mut dec = codec.decoder(Cursor::new(&bytes[k..]))?;
             dec.decompress_many(&mut recs)
         }));
         matches!(decoded, Ok(Ok(()))) && recs.chunks_exact(size).all(inside)
@@ -690,7 +694,7 @@ fn decode_ahead<R: Arriving + Send + Sync>(
     if source.seek(SeekFrom::Start(s)).is_err() {
         return held;
     }
-    let Ok(mut lane) = Lane::new(source, s, &start.vlr) else {
+    let Ok(mut lane) = Lane::new(source, s, &start.codec) else {
         return held;
     };
     let mut total = 0usize;
@@ -705,7 +709,7 @@ fn decode_ahead<R: Arriving + Send + Sync>(
         let mut raw = Vec::new();
         let got = lane.chunk(
             start.chunk,
-            &start.vlr,
+            &start.codec,
             |piece| {
                 recs.extend_from_slice(piece);
                 Ok(())
@@ -781,7 +785,7 @@ where
         return Err(not_here(name, "the header changed"));
     }
     // As the parallel decoder reads it, from the start of the point data.
-    let table = ChunkTable::read_from(&mut source, &start.vlr).map_err(decoder)?;
+    let table = ChunkTable::read_from(&mut source, &start.codec.vlr).map_err(decoder)?;
     let entries = table.as_ref();
     let before_last = |i: usize| i + 1 < entries.len();
     if !spans
@@ -813,7 +817,7 @@ where
         let last = next + group.len() == entries.len();
         // The decoder asserts on some damaged chunks.
         let got = catch_unwind(AssertUnwindSafe(|| {
-            decode_chunks(&packed, group, last, &start.vlr, size, &mut raw)
+            decode_chunks(&packed, group, last, &start.codec, size, &mut raw)
         }))
         .map_err(|_| not_here(name, "the decoder failed"))?
         .map_err(io)?;
@@ -1005,7 +1009,7 @@ impl<R: Read + Seek + Send> Job<'_, R> {
         let until_end = self.rest.last && i + 1 == self.rest.list.len();
         // The decoder asserts on some damaged chunks.
         catch_unwind(AssertUnwindSafe(|| {
-            decode_chunk(packed, raw, &self.start.vlr, until_end, size)
+            decode_chunk(packed, raw, &self.start.codec, until_end, size)
         }))
         .map_err(|_| not_here(self.name, "the decoder failed"))?
         .map_err(io)
@@ -1019,7 +1023,7 @@ fn decode_chunks(
     packed: &[u8],
     group: &[ChunkTableEntry],
     last: bool,
-    vlr: &LazVlr,
+    codec: &Codec,
     size: usize,
     raw: &mut Vec<u8>,
 ) -> std::io::Result<u64> {
@@ -1035,7 +1039,7 @@ fn decode_chunks(
     }
     let short = jobs
         .into_par_iter()
-        .map(|(chunk, out, until_end)| decode_chunk(chunk, out, vlr, until_end, size))
+        .map(|(chunk, out, until_end)| decode_chunk(chunk, out, codec, until_end, size))
         .collect::<std::io::Result<Vec<usize>>>()?;
     Ok(points - short.iter().sum::<usize>() as u64)
 }
@@ -1045,11 +1049,11 @@ fn decode_chunks(
 fn decode_chunk(
     chunk: &[u8],
     out: &mut [u8],
-    vlr: &LazVlr,
+    codec: &Codec,
     until_end: bool,
     size: usize,
 ) -> std::io::Result<usize> {
-    let mut dec = chunk_decoder(vlr, Cursor::new(chunk))?;
+    let mut dec = codec.decoder(Cursor::new(chunk))?;
     if until_end {
         let n = dec.decompress_until_end_of_file(out)?;
         Ok((out.len() - n) / size)
@@ -1058,22 +1062,60 @@ fn decode_chunk(
     }
 }
 
-/// A record decompressor for one chunk, as the `laz` crate makes it for the items' version.
-fn chunk_decoder<'a, S>(
-    vlr: &LazVlr,
-    source: S,
-) -> std::io::Result<Box<dyn RecordDecompressor<S> + Send + Sync + 'a>>
-where
-    S: Read + Seek + Send + Sync + 'a,
-{
-    let mut dec: Box<dyn RecordDecompressor<S> + Send + Sync + 'a> =
-        match vlr.items().first().map(LazItem::version) {
-            Some(1 | 2) => Box::new(SequentialPointRecordDecompressor::new(source)),
-            _ => Box::new(LayeredPointRecordDecompressor::new(source)),
-        };
-    dec.set_fields_from(vlr.items())
-        .map_err(std::io::Error::other)?;
-    Ok(dec)
+/// How this read decodes chunks: the file's items, and which of their fields it needs.
+struct Codec {
+    vlr: LazVlr,
+    /// A layered chunk (LAS 1.4 formats) keeps each field in layers of its own, and the
+    /// decoder skips the layers left out: the read needs only x, y, z, the scan (the point
+    /// source id) and the time. Point-wise chunks decode every field whatever this says.
+    fields: DecompressionSelection,
+}
+
+impl Codec {
+    fn new(vlr: LazVlr, keep_time: bool) -> Codec {
+        let fields = DecompressionSelection::base()
+            .decompress_z()
+            .decompress_point_source_id();
+        Codec {
+            vlr,
+            fields: if keep_time {
+                fields.decompress_gps_time()
+            } else {
+                fields
+            },
+        }
+    }
+
+    /// A record decompressor for one chunk, as the `laz` crate makes it for the items'
+    /// version.
+    fn decoder<'a, S>(
+        &self,
+        source: S,
+    ) -> std::io::Result<Box<dyn RecordDecompressor<S> + Send + Sync + 'a>>
+    where
+        S: Read + Seek + Send + Sync + 'a,
+    {
+        let mut dec: Box<dyn RecordDecompressor<S> + Send + Sync + 'a> =
+            match self.vlr.items().first().map(LazItem::version) {
+                Some(1 | 2) => Box::new(SequentialPointRecordDecompressor::new(source)),
+                _ => Box::new(LayeredPointRecordDecompressor::new(source)),
+            };
+        self.restart(&mut *dec)?;
+        Ok(dec)
+    }
+
+    /// Readies `dec` for a new chunk. The selection is applied after the fields are set,
+    /// since it goes to each field's decoder.
+    fn restart<S>(
+        &self,
+        dec: &mut (dyn RecordDecompressor<S> + Send + Sync + '_),
+    ) -> std::io::Result<()> {
+        dec.reset();
+        dec.set_fields_from(self.vlr.items())
+            .map_err(std::io::Error::other)?;
+        dec.set_selection(self.fields);
+        Ok(())
+    }
 }
 
 #[cfg(test)]
@@ -1222,7 +1264,8 @@ mod tests {
         std::fs::read(&path).unwrap()
     }
 
-    /// LAZ of point format 6 (layered chunks), LAS 1.4.
+    /// LAZ of point format 6 (layered chunks), LAS 1.4. Every field has values, as a
+    /// scanner's have, so the layers the read skips are not empty.
     fn layered_bytes(n: usize) -> Vec<u8> {
         let c = cloud(n);
         let mut builder = las::Builder::from((1, 4));
@@ -1253,6 +1296,14 @@ mod tests {
                         gps_time: Some(c.time[i]),
                         return_number: 1,
                         number_of_returns: 1,
+                        intensity: (i * 7919 % 65_521) as u16,
+                        classification: las::point::Classification::new(
+                            [1, 2, 3, 4, 5, 6, 7, 9, 17, 18][i % 10],
+                        )
+                        .unwrap(),
+                        is_synthetic: i % 3 == 0,
+                        scan_angle: (i % 180) as f32 - 90.0,
+                        user_data: (i % 251) as u8,
                         ..Default::default()
                     })
                     .unwrap();
@@ -1377,6 +1428,33 @@ mod tests {
     }
 
     #[test]
+    fn layered_chunks_decode_the_fields_the_cloud_keeps_as_the_las_crate_does() {
+        // The straight read skips the layers of intensity, classification, flags, scan angle
+        // and user data, and of the time when it is not kept; what it keeps is the `las`
+        // crate's serial read, which decodes every layer.
+        let bytes = layered_bytes(160_001);
+        let len = bytes.len() as u64;
+        for keep_time in [true, false] {
+            let options = ReadOptions {
+                keep_time,
+                ..ReadOptions::default()
+            };
+            let source = Cursor::new(bytes.clone());
+            let serial =
+                super::super::read_las_with(source, len, "t.laz", &options, false, None).unwrap();
+            let straight = read_laz_whole(&mut Cursor::new(bytes.clone()), len, "t.laz", &options)
+                .expect("fixed-size chunks are decoded straight into the cloud");
+            assert_eq!(serial.len(), 160_001);
+            assert_eq!(
+                straight.time.is_empty(),
+                !keep_time,
+                "keep_time {keep_time}"
+            );
+            assert_same(&serial, &straight);
+        }
+    }
+
+    #[test]
     fn a_second_lane_decodes_ahead_and_changes_nothing() {
         // 21 chunks, the last of 3 points; half arrive at once, so a second lane has work. It
         // finds a point-wise chunk's start by its first record, a layered one's by hopping.
@@ -1394,10 +1472,11 @@ mod tests {
     #[test]
     fn chunk_starts_are_found_where_the_chunk_table_puts_them() {
         let bytes = laz_bytes(300_007);
-        let start = Start::read(&mut Cursor::new(&bytes), bytes.len() as u64, "t.laz").unwrap();
+        let start =
+            Start::read(&mut Cursor::new(&bytes), bytes.len() as u64, "t.laz", false).unwrap();
         let mut source = Cursor::new(&bytes);
         source.seek(SeekFrom::Start(start.data)).unwrap();
-        let table = ChunkTable::read_from(&mut source, &start.vlr).unwrap();
+        let table = ChunkTable::read_from(&mut source, &start.codec.vlr).unwrap();
         let (layout, guard) = (
             Layout::new(&start.header, false),
             BoundsGuard::new(&start.header),
@@ -1419,14 +1498,14 @@ mod tests {
             for from in [w[0] + 1, (w[0] + w[1]) / 2] {
                 let last = (w[1] - from) as usize + 1;
                 let found =
-                    chunk_start_after(&bytes[from as usize..], last, &start.vlr, &layout, &guard);
+                    chunk_start_after(&bytes[from as usize..], last, &start.codec, &layout, &guard);
                 assert_eq!(found.map(|k| from + k as u64), Some(w[1]), "from {from}");
             }
         }
         // The first chunk's own start is found from there.
         let first = &bytes[starts[0] as usize..];
         assert_eq!(
-            chunk_start_after(first, 1, &start.vlr, &layout, &guard),
+            chunk_start_after(first, 1, &start.codec, &layout, &guard),
             Some(0)
         );
     }
