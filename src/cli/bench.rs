@@ -48,7 +48,7 @@ pub struct BenchArgs {
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "e57,las,laz,ply,ply-ascii,xyz"
+        default_value = "e57,las,laz,laz14,ply,ply-ascii,xyz"
     )]
     pub read_formats: Vec<BenchFormat>,
     /// Points of the read-throughput table's cloud.
@@ -91,6 +91,9 @@ pub enum BenchFormat {
     PlyAscii,
     Las,
     Laz,
+    /// LAS 1.4 point format 6 compressed: layered LAZ, as terrestrial scanners' software
+    /// writes it.
+    Laz14,
     /// E57 with one Data3D and pose per scan.
     E57,
     /// `x y z scan` text lines.
@@ -104,6 +107,7 @@ impl BenchFormat {
             BenchFormat::PlyAscii => "cloud-ascii.ply",
             BenchFormat::Las => "cloud.las",
             BenchFormat::Laz => "cloud.laz",
+            BenchFormat::Laz14 => "cloud14.laz",
             BenchFormat::E57 => "cloud.e57",
             BenchFormat::Xyz => "cloud.xyz",
         }
@@ -115,6 +119,7 @@ impl BenchFormat {
             BenchFormat::PlyAscii => "ply-ascii",
             BenchFormat::Las => "las",
             BenchFormat::Laz => "laz",
+            BenchFormat::Laz14 => "laz14",
             BenchFormat::E57 => "e57",
             BenchFormat::Xyz => "xyz",
         }
@@ -452,6 +457,7 @@ fn write_format(path: &Path, cloud: &PointCloud, format: BenchFormat) -> anyhow:
         BenchFormat::PlyAscii => ply::write_ply(path, cloud, ply::Encoding::Ascii)?,
         BenchFormat::Las => export::write_las(path, cloud, false)?,
         BenchFormat::Laz => export::write_las(path, cloud, true)?,
+        BenchFormat::Laz14 => export::write_las14(path, cloud, true)?,
         BenchFormat::E57 => export::write_e57(path, cloud)?,
         BenchFormat::Xyz => export::write_xyz(path, cloud)?,
     }

@@ -125,11 +125,34 @@ pub fn write_e57(path: &Path, cloud: &PointCloud) -> Result<(), ExportError> {
 /// Writes LAS 1.2 (or LAZ when `compressed`) at millimetre resolution, with `point_source_id`
 /// from the scan indices and, when the cloud has times, `gps_time` (point format 1).
 pub fn write_las(path: &Path, cloud: &PointCloud, compressed: bool) -> Result<(), ExportError> {
+    let has_time = !cloud.time.is_empty();
+    write_las_as(
+        path,
+        cloud,
+        compressed,
+        (1, 2),
+        if has_time { 1 } else { 0 },
+    )
+}
+
+/// [`write_las`] as LAS 1.4 point format 6, whose LAZ keeps each field in layers of its own.
+/// The format always has a time: 0 where the cloud has none.
+pub fn write_las14(path: &Path, cloud: &PointCloud, compressed: bool) -> Result<(), ExportError> {
+    write_las_as(path, cloud, compressed, (1, 4), 6)
+}
+
+fn write_las_as(
+    path: &Path,
+    cloud: &PointCloud,
+    compressed: bool,
+    version: (u8, u8),
+    format: u8,
+) -> Result<(), ExportError> {
     let fe = fmt_err(path);
     let e = |e: las::Error| fe(e.to_string());
-    let has_time = !cloud.time.is_empty();
-    let mut builder = las::Builder::from((1, 2));
-    builder.point_format = las::point::Format::new(if has_time { 1 } else { 0 }).map_err(e)?;
+    let mut builder = las::Builder::from(version);
+    builder.point_format = las::point::Format::new(format).map_err(e)?;
+    let has_time = builder.point_format.has_gps_time;
     builder.point_format.is_compressed = compressed;
     let t = |offset: f64| las::Transform {
         scale: 0.001,
@@ -160,7 +183,7 @@ pub fn write_las(path: &Path, cloud: &PointCloud, compressed: bool) -> Result<()
                 y,
                 z,
                 point_source_id,
-                gps_time: has_time.then(|| cloud.time[i]),
+                gps_time: has_time.then(|| cloud.time.get(i).copied().unwrap_or(0.0)),
                 return_number: 1,
                 number_of_returns: 1,
                 ..Default::default()
