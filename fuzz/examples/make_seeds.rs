@@ -130,16 +130,19 @@ fn las_seeds(c: &PointCloud) {
         }
         w.close().unwrap();
     }
-    small_chunks_laz(&out("las", "laz12-chunks4.laz"));
+    small_chunks_laz(&out("las", "laz12-chunks4.laz"), (1, 2), 1);
+    small_chunks_laz(&out("las", "laz14-chunks4.laz"), (1, 4), 6);
 }
 
 /// A LAZ of 60 points in 15 chunks of 4, small enough for the fuzzer's inputs: the parallel
 /// reader decodes the first group of chunks together and the rest each straight into place,
 /// which the exporter's 50,000-point chunks never reach in a small file. Made from the `las`
 /// crate's uncompressed file: its records compressed by `laz`, and a LASzip record added.
-fn small_chunks_laz(path: &Path) {
-    let mut b = las::Builder::from((1, 2));
-    b.point_format = las::point::Format::new(1).unwrap();
+/// Point format 6 (LAS 1.4) makes layered chunks, whose reader skips the layers of fields it
+/// does not keep, so those fields have values here.
+fn small_chunks_laz(path: &Path, version: (u8, u8), format: u8) {
+    let mut b = las::Builder::from(version);
+    b.point_format = las::point::Format::new(format).unwrap();
     let tmp = std::env::temp_dir().join("asbuilt-seed-plain.las");
     {
         let mut w = las::Writer::from_path(&tmp, b.into_header().unwrap()).unwrap();
@@ -153,6 +156,10 @@ fn small_chunks_laz(path: &Path) {
                 gps_time: Some(f * 0.01),
                 return_number: 1,
                 number_of_returns: 1,
+                intensity: (i * 997 % 4096) as u16,
+                classification: las::point::Classification::new(1 + (i % 6) as u8).unwrap(),
+                scan_angle: (i % 30) as f32,
+                user_data: (i % 7) as u8,
                 ..Default::default()
             })
             .unwrap();
@@ -162,11 +169,13 @@ fn small_chunks_laz(path: &Path) {
     let plain = std::fs::read(&tmp).unwrap();
     let u16_at = |at: usize| u16::from_le_bytes([plain[at], plain[at + 1]]);
     let u32_at = |at: usize| u32::from_le_bytes(plain[at..at + 4].try_into().unwrap());
-    // LAS 1.2 header fields: header size, offset to the points, VLR count, record length.
+    // Header fields (at the same places in LAS 1.2 and 1.4): header size, offset to the
+    // points, VLR count, record length.
     let (head, data) = (usize::from(u16_at(94)), u32_at(96) as usize);
     let (vlrs, size) = (u32_at(100), u16_at(105));
+    let base = if format == 6 { 30 } else { 28 };
     let vlr = laz::LazVlrBuilder::default()
-        .with_point_format(1, size - 28)
+        .with_point_format(format, size - base)
         .unwrap()
         .with_fixed_chunk_size(4)
         .build();
