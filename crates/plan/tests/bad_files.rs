@@ -680,6 +680,42 @@ fn laz_layer_of_four_gigabytes() {
     );
 }
 
+#[test]
+fn laz_layers_larger_than_their_chunk_are_refused_before_the_decoder_allocates_them() {
+    // The serial decoder takes a fixed-size chunk's points from the chunk size, not from the
+    // count the chunk declares; a fuzzed file whose counts were larger hid a chunk declaring
+    // a 1.6 GB layer from the check, and the read took 1.6 GB for 2,716 bytes.
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz_regressions");
+    let path = dir.join("las-oom-layer-size-past-declared-count.laz");
+    let err = io::read_cloud(&path).expect_err("a fuzz finding must not read");
+    check(
+        &path,
+        &err,
+        "(laz)",
+        &["compressed chunk 11 declares a layer of 1604696076 bytes, past the end of the 2716-byte file"],
+    );
+    // The parallel decoders cut the chunks by the table: a layer may fit in the file and
+    // still run past its chunk's bytes. The last chunk's last layer, 8 bytes longer, ends
+    // inside the chunk table that follows it.
+    let b0 = layered_laz();
+    let start = u32::from_le_bytes(b0[96..100].try_into().unwrap()) as usize;
+    let last = start + 8 + 30 + 4 + 4 * 8;
+    let size = u32::from_le_bytes(b0[last..last + 4].try_into().unwrap());
+    let mut b = b0.clone();
+    put_u32(&mut b, last, size + 8);
+    expect(
+        "layer-past-chunk.laz",
+        &b,
+        &Default::default(),
+        "(laz)",
+        &[
+            "compressed chunk 0 declares",
+            "more than the",
+            "bytes the chunk table gives it",
+        ],
+    );
+}
+
 /// Inputs the fuzz targets found (`fuzz/`), kept as files: each must give a clean error.
 #[test]
 fn fuzz_findings_stay_fixed() {

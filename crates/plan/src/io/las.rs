@@ -7,6 +7,7 @@
 use std::io::{Read, Seek, SeekFrom};
 
 use las::{LazParallelism, PointData, PointDataBuilder, Reader, ReaderOptions};
+use laz::laszip::ChunkTableEntry;
 
 mod arriving;
 mod chunks;
@@ -642,7 +643,7 @@ fn check_header<R: Read + Seek>(
         let table = check_chunk_table(source, start, len, points, variable, fixed, name)?;
         // Only the chunked compressors (1 is point-wise, 2 and 3 chunked) decode in parallel.
         if let Some((POINTWISE_CHUNKED | LAYERED_CHUNKED, size, _)) = &laszip {
-            if table {
+            if table.is_some() {
                 laz_chunk = Some(match *size {
                     0 | u32::MAX => 50_000,
                     n => u64::from(n),
@@ -673,7 +674,11 @@ fn check_header<R: Read + Seek>(
                 ))
             }
             Some((LAYERED_CHUNKED, _, items)) => {
-                check_layered_chunks(source, start, len, points, &items, name)?
+                let chunks = Chunks {
+                    fixed,
+                    table: table.as_deref(),
+                };
+                check_layered_chunks(source, start, len, points, chunks, &items, name)?
             }
             _ => {}
         }
@@ -756,8 +761,9 @@ fn check_transforms(
     Ok(())
 }
 
-/// LAZ keeps a chunk table whose entry count the decoder allocates from. Returns true when the
-/// table is whole and consistent with the file, so the chunks can be decoded in parallel.
+/// LAZ keeps a chunk table whose entry count the decoder allocates from. Returns its entries
+/// when the table is whole and consistent with the file, so the chunks can be decoded in
+/// parallel.
 /// Chunks of `fixed` points (a chunked compressor's) must cover the header's points too.
 fn check_chunk_table<R: Read + Seek>(
     source: &mut R,
@@ -767,7 +773,7 @@ fn check_chunk_table<R: Read + Seek>(
     variable: bool,
     fixed: Option<u64>,
     name: &str,
-) -> Result<bool, ReadError> {
+) -> Result<Option<Vec<ChunkTableEntry>>, ReadError> {
     let io = |e: std::io::Error| ReadError::io(name, e);
     let read_u64_at = |s: &mut R, at: u64| -> Result<Option<i64>, ReadError> {
         if at.checked_add(8).is_none_or(|end| end > len) {
@@ -790,7 +796,7 @@ fn check_chunk_table<R: Read + Seek>(
         // Writers that could not seek back leave the offset in the last 8 bytes.
         offset = read_u64_at(source, len.saturating_sub(8))?.unwrap_or(-1);
         if offset <= start as i64 {
-            return Ok(false);
+            return Ok(None);
         }
     }
     let table = offset as u64;
@@ -823,7 +829,7 @@ fn check_chunk_table<R: Read + Seek>(
     let entries = match read {
         Ok(Ok(entries)) => entries,
         // The sequential decoder of fixed-size chunks never reads the table.
-        Ok(Err(_)) | Err(_) if !variable => return Ok(false),
+        Ok(Err(_)) | Err(_) if !variable => return Ok(None),
         Ok(Err(e)) => {
             return Err(ReadError::at(
                 name,
@@ -873,7 +879,7 @@ fn check_chunk_table<R: Read + Seek>(
         .as_ref()
         .iter()
         .all(|e| e.point_count <= points.max(1) && e.byte_count <= len);
-    Ok(sane && bytes <= table.saturating_sub(start))
+    Ok((sane && bytes <= table.saturating_sub(start)).then(|| entries.as_ref().to_vec()))
 }
 
 /// The bytes of a record of point items (type, size).
@@ -948,19 +954,33 @@ fn layered_shape(items: &[(u16, u16)]) -> Option<(u64, u64)> {
     Some((layers, first_point))
 }
 
-/// Walks the chunks of a layered LAZ file, checking each layer's size against the file. The
-/// decoder allocates (and zeroes) a buffer of each declared size before reading it, so a damaged
-/// size of 4 GB would otherwise cost 4 GB. A chunk is its first point raw, the point count,
-/// one `u32` size per layer, then the layers, so the next chunk's place follows from the sizes.
+/// Where a layered file's chunks lie, as the decoders see them.
+#[derive(Clone, Copy)]
+struct Chunks<'a> {
+    /// Points per chunk, when the chunks are of fixed size: the decoder takes this many from
+    /// each, whatever count the chunk itself declares.
+    fixed: Option<u64>,
+    /// The chunk table, when it is sound: the parallel decoders cut the chunks by it.
+    table: Option<&'a [ChunkTableEntry]>,
+}
+
+/// Checks the layer sizes of a layered LAZ file's chunks. The decoder allocates (and zeroes) a
+/// buffer of each declared size before reading it, so a damaged size of 4 GB would otherwise
+/// cost 4 GB. A chunk is its first point raw, the point count, one `u32` size per layer, then
+/// the layers.
+/// - The serial decoder goes from chunk to chunk by those sizes: every chunk it meets must fit
+///   in the file.
+/// - The parallel decoders cut the chunks by the table: each chunk's layers must fit in the
+///   bytes the table gives it.
 fn check_layered_chunks<R: Read + Seek>(
     source: &mut R,
     start: u64,
     len: u64,
     points: u64,
+    chunks: Chunks<'_>,
     items: &[(u16, u16)],
     name: &str,
 ) -> Result<(), ReadError> {
-    let io = |e: std::io::Error| ReadError::io(name, e);
     // Not layered: the decoder refuses it.
     let Some((layers, first_point)) = layered_shape(items) else {
         return Ok(());
@@ -968,56 +988,110 @@ fn check_layered_chunks<R: Read + Seek>(
     let mut at = start + 8;
     let mut left = points;
     let mut chunk = 0u64;
-    let mut buf = vec![0u8; 4 + 4 * layers as usize];
     while left > 0 {
-        let sizes_at = at + first_point;
-        if sizes_at + buf.len() as u64 > len {
-            return Err(ReadError::at(
-                name,
-                "laz",
-                format!("compressed chunk {chunk} ends inside its header: the file is truncated"),
-                format!("byte {at}"),
-            ));
-        }
-        source.seek(SeekFrom::Start(sizes_at)).map_err(io)?;
-        source.read_exact(&mut buf).map_err(io)?;
-        let word = |i: usize| {
-            u64::from(u32::from_le_bytes([
-                buf[4 * i],
-                buf[4 * i + 1],
-                buf[4 * i + 2],
-                buf[4 * i + 3],
-            ]))
-        };
-        let count = word(0);
-        if count == 0 {
+        let head = layered_head(source, at, len, layers, first_point, chunk, name)?;
+        if head.count == 0 {
             return Err(ReadError::at(
                 name,
                 "laz",
                 format!("compressed chunk {chunk} holds no points, with {left} still to come"),
-                format!("byte {sizes_at}"),
+                format!("byte {}", head.sizes_at),
             ));
         }
-        let mut end = sizes_at + buf.len() as u64;
-        for i in 1..=layers as usize {
-            end = end.saturating_add(word(i));
-            if end > len {
-                return Err(ReadError::at(
-                    name,
-                    "laz",
-                    format!(
-                        "compressed chunk {chunk} declares a layer of {} bytes, past the end of the {len}-byte file",
-                        word(i)
-                    ),
-                    format!("byte {}", sizes_at + 4 * i as u64),
-                ));
-            }
+        if let Some((i, size)) = head.past(len) {
+            return Err(ReadError::at(
+                name,
+                "laz",
+                format!(
+                    "compressed chunk {chunk} declares a layer of {size} bytes, past the end of the {len}-byte file"
+                ),
+                format!("byte {}", head.sizes_at + 4 * (i as u64 + 1)),
+            ));
         }
-        left = left.saturating_sub(count);
-        at = end;
+        left = left.saturating_sub(chunks.fixed.unwrap_or(head.count));
+        at = head.end;
         chunk += 1;
     }
+    let mut at = start + 8;
+    for (chunk, e) in chunks.table.unwrap_or_default().iter().enumerate() {
+        let head = layered_head(source, at, len, layers, first_point, chunk as u64, name)?;
+        let end = at.saturating_add(e.byte_count);
+        if head.end > end {
+            return Err(ReadError::at(
+                name,
+                "laz",
+                format!(
+                    "compressed chunk {chunk} declares {} bytes of layers, more than the {} \
+                     bytes the chunk table gives it",
+                    head.end - (head.sizes_at + 4 + 4 * layers),
+                    e.byte_count
+                ),
+                format!("byte {}", head.sizes_at),
+            ));
+        }
+        at = end;
+    }
     Ok(())
+}
+
+/// What a layered chunk's header declares.
+struct LayeredHead {
+    /// Where its point count is, after the raw first point.
+    sizes_at: u64,
+    count: u64,
+    sizes: Vec<u64>,
+    /// Where its last layer ends, by the sizes (saturating).
+    end: u64,
+}
+
+impl LayeredHead {
+    /// The first layer that ends past `len`, and its size.
+    fn past(&self, len: u64) -> Option<(usize, u64)> {
+        let mut end = self.sizes_at + 4 + 4 * self.sizes.len() as u64;
+        self.sizes.iter().enumerate().find_map(|(i, &size)| {
+            end = end.saturating_add(size);
+            (end > len).then_some((i, size))
+        })
+    }
+}
+
+/// Reads the header of the layered chunk at byte `at` (chunk number `chunk`, for messages).
+fn layered_head<R: Read + Seek>(
+    source: &mut R,
+    at: u64,
+    len: u64,
+    layers: u64,
+    first_point: u64,
+    chunk: u64,
+    name: &str,
+) -> Result<LayeredHead, ReadError> {
+    let io = |e: std::io::Error| ReadError::io(name, e);
+    let sizes_at = at.saturating_add(first_point);
+    let mut buf = vec![0u8; 4 + 4 * layers as usize];
+    if sizes_at.saturating_add(buf.len() as u64) > len {
+        return Err(ReadError::at(
+            name,
+            "laz",
+            format!("compressed chunk {chunk} ends inside its header: the file is truncated"),
+            format!("byte {at}"),
+        ));
+    }
+    source.seek(SeekFrom::Start(sizes_at)).map_err(io)?;
+    source.read_exact(&mut buf).map_err(io)?;
+    let mut words = buf
+        .chunks_exact(4)
+        .map(|w| u64::from(u32::from_le_bytes([w[0], w[1], w[2], w[3]])));
+    let count = words.next().unwrap_or(0);
+    let sizes: Vec<u64> = words.collect();
+    let end = sizes
+        .iter()
+        .fold(sizes_at + buf.len() as u64, |end, &s| end.saturating_add(s));
+    Ok(LayeredHead {
+        sizes_at,
+        count,
+        sizes,
+        end,
+    })
 }
 
 /// Header bounds, widened by 1 % and a few scale steps, when the header has any.
