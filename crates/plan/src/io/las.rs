@@ -1432,23 +1432,39 @@ mod tests {
         let path = dir.path().join("t.laz");
         crate::io::export::write_las(&path, &c, true).unwrap();
         let bytes = std::fs::read(&path).unwrap();
-        let len = bytes.len() as u64;
         // With and without times (the records are the same; only the arrays differ).
-        for keep_time in [true, false] {
-            let options = ReadOptions {
-                keep_time,
-                ..ReadOptions::default()
-            };
-            let source = Cursor::new(bytes.clone());
-            let serial = read_las_with(source, len, "t.laz", &options, false, None).unwrap();
-            let straight =
-                arriving::read_laz_whole(&mut Cursor::new(bytes.clone()), len, "t.laz", &options)
-                    .expect("fixed-size chunks are decoded straight into the cloud");
+        for serial in straight_reads_match_serial(&bytes) {
             assert_eq!(serial.len(), n);
             assert_eq!(serial.scan_ids, [30, 3, 7, 25, 19, 11]);
-            assert_eq!(straight.time.is_empty(), !keep_time);
-            assert_same(&serial, &straight);
         }
+    }
+
+    /// Reads a LAZ file's bytes straight into place and through the `las` crate's serial
+    /// reader, with times kept and not: both must give the same cloud, bit for bit, with times
+    /// only when kept. Returns the serial reads.
+    pub(super) fn straight_reads_match_serial(bytes: &[u8]) -> Vec<PointCloud> {
+        let len = bytes.len() as u64;
+        [true, false]
+            .into_iter()
+            .map(|keep_time| {
+                let options = ReadOptions {
+                    keep_time,
+                    ..ReadOptions::default()
+                };
+                let source = Cursor::new(bytes.to_vec());
+                let serial = read_las_with(source, len, "t.laz", &options, false, None).unwrap();
+                let mut source = Cursor::new(bytes.to_vec());
+                let straight = arriving::read_laz_whole(&mut source, len, "t.laz", &options)
+                    .expect("fixed-size chunks are decoded straight into the cloud");
+                assert_eq!(
+                    straight.time.is_empty(),
+                    !keep_time,
+                    "keep_time {keep_time}"
+                );
+                assert_same(&serial, &straight);
+                serial
+            })
+            .collect()
     }
 
     /// Two reads of one file gave the same cloud, bit for bit.

@@ -1432,25 +1432,8 @@ mod tests {
         // The straight read skips the layers of intensity, classification, flags, scan angle
         // and user data, and of the time when it is not kept; what it keeps is the `las`
         // crate's serial read, which decodes every layer.
-        let bytes = layered_bytes(160_001);
-        let len = bytes.len() as u64;
-        for keep_time in [true, false] {
-            let options = ReadOptions {
-                keep_time,
-                ..ReadOptions::default()
-            };
-            let source = Cursor::new(bytes.clone());
-            let serial =
-                super::super::read_las_with(source, len, "t.laz", &options, false, None).unwrap();
-            let straight = read_laz_whole(&mut Cursor::new(bytes.clone()), len, "t.laz", &options)
-                .expect("fixed-size chunks are decoded straight into the cloud");
+        for serial in super::super::tests::straight_reads_match_serial(&layered_bytes(160_001)) {
             assert_eq!(serial.len(), 160_001);
-            assert_eq!(
-                straight.time.is_empty(),
-                !keep_time,
-                "keep_time {keep_time}"
-            );
-            assert_same(&serial, &straight);
         }
     }
 
