@@ -8,7 +8,6 @@
 //! completions are counted. Needs `ASBUILT_TEST_POSTGRES` and `ASBUILT_TEST_S3_ENDPOINT`.
 
 use std::collections::BTreeMap;
-use std::net::TcpListener;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -25,6 +24,7 @@ const STAGE_MS: &str = "250";
 struct Proc {
     child: Child,
     data_dir: PathBuf,
+    log: PathBuf,
 }
 
 impl Drop for Proc {
@@ -44,22 +44,17 @@ struct Cluster {
     root: tempfile::TempDir,
 }
 
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
 impl Cluster {
-    fn spawn(&self, name: &str, role: &[&str], port: u16) -> Proc {
+    /// Starts a process on a port of its own choosing: a port picked free here could be taken
+    /// by a parallel test before the child binds it.
+    fn spawn(&self, name: &str, role: &[&str]) -> Proc {
         let data_dir = self.root.path().join(name);
         std::fs::create_dir_all(&data_dir).unwrap();
-        let log = std::fs::File::create(self.root.path().join(format!("{name}.log"))).unwrap();
+        let log_path = self.root.path().join(format!("{name}.log"));
+        let log = std::fs::File::create(&log_path).unwrap();
         let child = Command::new(env!("CARGO_BIN_EXE_asbuilt"))
             .args(role)
-            .args(["--listen", &format!("127.0.0.1:{port}")])
+            .args(["--listen", "127.0.0.1:0"])
             .arg("--data-dir")
             .arg(&data_dir)
             .args(["--database-url", &self.database])
@@ -73,7 +68,11 @@ impl Cluster {
             .stderr(log)
             .spawn()
             .expect("starting asbuilt");
-        Proc { child, data_dir }
+        Proc {
+            child,
+            data_dir,
+            log: log_path,
+        }
     }
 
     fn logs(&self) -> String {
@@ -116,22 +115,43 @@ impl Cluster {
     }
 }
 
-async fn wait_healthy(http: &reqwest::Client, port: u16, cluster: &Cluster) {
+/// Waits until the process has printed the port it listens on and answers ready there;
+/// returns the port.
+async fn wait_ready(http: &reqwest::Client, proc: &mut Proc, cluster: &Cluster) -> u16 {
     let deadline = Instant::now() + Duration::from_secs(30);
     loop {
-        let url = format!("http://127.0.0.1:{port}/readyz");
-        if let Ok(r) = http.get(&url).send().await {
-            if r.status().is_success() {
-                return;
+        if let Some(port) = listening_port(&proc.log) {
+            let url = format!("http://127.0.0.1:{port}/readyz");
+            if let Ok(r) = http.get(&url).send().await {
+                if r.status().is_success() {
+                    return port;
+                }
             }
+        }
+        if let Some(status) = proc.child.try_wait().unwrap() {
+            panic!(
+                "{} exited ({status}) before it was ready\n{}",
+                proc.log.display(),
+                cluster.logs()
+            );
         }
         assert!(
             Instant::now() < deadline,
-            "port {port} never became ready\n{}",
+            "{} never became ready\n{}",
+            proc.log.display(),
             cluster.logs()
         );
         tokio::time::sleep(Duration::from_millis(100)).await;
     }
+}
+
+/// The port in the process's `listening on http://127.0.0.1:PORT` line, once printed.
+fn listening_port(log: &std::path::Path) -> Option<u16> {
+    let text = std::fs::read_to_string(log).ok()?;
+    let line = text.lines().find(|l| l.contains("listening on http://"))?;
+    let after = &line[line.find("127.0.0.1:")? + "127.0.0.1:".len()..];
+    let digits: String = after.chars().take_while(char::is_ascii_digit).collect();
+    digits.parse().ok()
 }
 
 /// A small XYZ cloud; the synthetic pipeline counts its lines as points.
@@ -204,19 +224,13 @@ async fn one_api_three_workers_survive_a_killed_worker() {
         .timeout(Duration::from_secs(20))
         .build()
         .unwrap();
-    let api_port = free_port();
-    let _api = cluster.spawn("api", &["serve", "--no-workers"], api_port);
-    let mut workers = vec![];
-    for w in 0..3 {
-        let port = free_port();
-        workers.push((
-            cluster.spawn(&format!("worker{w}"), &["worker"], port),
-            port,
-        ));
-    }
-    wait_healthy(&http, api_port, &cluster).await;
-    for (_, port) in &workers {
-        wait_healthy(&http, *port, &cluster).await;
+    let mut api = cluster.spawn("api", &["serve", "--no-workers"]);
+    let mut workers: Vec<Proc> = (0..3)
+        .map(|w| cluster.spawn(&format!("worker{w}"), &["worker"]))
+        .collect();
+    let api_port = wait_ready(&http, &mut api, &cluster).await;
+    for w in &mut workers {
+        wait_ready(&http, w, &cluster).await;
     }
     let api = format!("http://127.0.0.1:{api_port}");
 
@@ -247,7 +261,7 @@ async fn one_api_three_workers_survive_a_killed_worker() {
         if let Some(row) = rows.first() {
             let owner: String = row.get("lease_owner");
             let pid = owner_pid(&owner);
-            if let Some(i) = workers.iter().position(|(p, _)| p.child.id() == pid) {
+            if let Some(i) = workers.iter().position(|p| p.child.id() == pid) {
                 break (i, row.get::<String, _>("id"));
             }
         }
@@ -258,13 +272,11 @@ async fn one_api_three_workers_survive_a_killed_worker() {
         );
         tokio::time::sleep(Duration::from_millis(20)).await;
     };
-    workers[victim].0.child.kill().unwrap(); // SIGKILL
-    workers[victim].0.child.wait().unwrap();
-    let replacement = free_port();
-    workers.push((
-        cluster.spawn("worker3", &["worker"], replacement),
-        replacement,
-    ));
+    workers[victim].child.kill().unwrap(); // SIGKILL
+    workers[victim].child.wait().unwrap();
+    workers.push(cluster.spawn("worker3", &["worker"]));
+    let replacement = workers.last_mut().unwrap();
+    wait_ready(&http, replacement, &cluster).await;
 
     // Every job succeeds.
     let deadline = Instant::now() + Duration::from_secs(180);
@@ -300,7 +312,7 @@ async fn one_api_three_workers_survive_a_killed_worker() {
         .await
         .unwrap();
     assert!(attempts >= 2, "the killed job was not retried ({attempts})");
-    let dirs: Vec<PathBuf> = workers.iter().map(|(p, _)| p.data_dir.clone()).collect();
+    let dirs: Vec<PathBuf> = workers.iter().map(|p| p.data_dir.clone()).collect();
     let runs = completions(&dirs);
     assert_eq!(runs.len(), JOBS, "completed jobs: {runs:?}");
     for id in &ids {
@@ -312,11 +324,17 @@ async fn one_api_three_workers_survive_a_killed_worker() {
         );
     }
     // Every process saw work: the queue was shared, not drained by one worker.
-    let busy = workers
+    let per_worker: Vec<usize> = dirs
         .iter()
-        .filter(|(p, _)| std::fs::metadata(p.data_dir.join("fake-completions.log")).is_ok())
-        .count();
-    assert!(busy >= 3, "only {busy} workers completed jobs");
+        .map(|d| completions(std::slice::from_ref(d)).values().sum())
+        .collect();
+    eprintln!("completions per worker (worker0-2, replacement): {per_worker:?}");
+    let busy = per_worker.iter().filter(|&&n| n > 0).count();
+    assert!(
+        busy >= 3,
+        "only {busy} workers completed jobs: {per_worker:?} (worker0-2, replacement)\n{}",
+        cluster.logs()
+    );
 
     // Each result is valid.
     for id in &ids {
@@ -378,7 +396,7 @@ async fn one_api_three_workers_survive_a_killed_worker() {
 
     pg.close().await;
     drop(workers);
-    drop(_api);
+    drop(api);
     cluster.engines.drop_schema(&cluster.schema).await;
 }
 

@@ -250,12 +250,17 @@ pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<PointCloud,
 }
 
 /// Reads a point cloud and attaches its sidecar, scaled as the cloud is; errors name the file
-/// at fault.
+/// at fault. Static poses make the points' times useless, so they are not kept.
 pub fn read_scan(
     path: &Path,
     sidecar: Option<(SidecarKind, &Path)>,
     options: &ReadOptions,
 ) -> Result<PointCloud, ReadError> {
+    let posed = matches!(sidecar, Some((SidecarKind::Poses, _)));
+    let options = &ReadOptions {
+        keep_time: options.keep_time && !posed,
+        ..options.clone()
+    };
     let mut cloud = read_cloud_with(path, options)?;
     if let Some((kind, file)) = sidecar {
         sidecar::read_scaled(kind, file, options.scale)?

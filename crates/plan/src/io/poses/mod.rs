@@ -224,6 +224,31 @@ mod tests {
     }
 
     #[test]
+    fn a_posed_scan_with_times_is_not_taken_for_a_moving_scanner() {
+        let mut cloud = PointCloud {
+            xyz: vec![[0.0; 3]; 3],
+            time: vec![1.0, 2.0, 3.0],
+            ..Default::default()
+        };
+        assert!(
+            cloud.is_mobile(),
+            "times and no scans: a mobile scan until posed"
+        );
+        let pose = ScanPose {
+            index: 0,
+            position: [0.0, 0.0, 1.5],
+            quaternion: ID,
+        };
+        attach_poses(&mut cloud, vec![pose]).unwrap();
+        assert!(!cloud.is_mobile());
+        assert!(
+            cloud.time.is_empty(),
+            "the times a posed scan no longer needs are kept"
+        );
+        cloud.check().unwrap();
+    }
+
+    #[test]
     fn mismatched_sidecars_name_the_index() {
         let pose = |index| ScanPose {
             index,

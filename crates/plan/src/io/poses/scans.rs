@@ -107,6 +107,9 @@ pub fn attach_poses(cloud: &mut PointCloud, poses: Vec<ScanPose>) -> Result<(), 
         })
         .collect();
     cloud.viewpoints = Viewpoints::Static(local);
+    // Posed scanners stood still: their points' times say nothing the poses do not, and a
+    // single posed scan with times must not be taken for a moving scanner's.
+    cloud.time = Vec::new();
     Ok(())
 }
 
