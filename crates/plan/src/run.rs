@@ -7,7 +7,7 @@ use std::sync::mpsc::{self, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
 use crate::cancel::Cancelled;
-use crate::cloud::PointCloud;
+use crate::cloud::{PointCloud, Viewpoints};
 use crate::georef::Georeference;
 use crate::io::{self, BytesRead, ReadError, ReadOptions, SidecarKind, UnitsError};
 use crate::params::Params;
@@ -221,10 +221,15 @@ pub fn plan_decoded(
 /// The in-memory run after the read: the point limit, the units check, the stages.
 fn plan_in_memory(
     scan: &Scan<'_>,
-    cloud: PointCloud,
+    mut cloud: PointCloud,
     start: Instant,
     progress: &mut dyn Progress,
 ) -> Result<Planned, RunError> {
+    // Only a trajectory, or a path estimated for a single moving scanner, reads the points'
+    // times; the scans of a merged static survey need none of their 8 bytes a point.
+    if !cloud.is_mobile() && !matches!(cloud.viewpoints, Viewpoints::Trajectory(_)) {
+        cloud.time = Vec::new();
+    }
     if let Some(max) = scan.max_points {
         check_points(cloud.len() as u64, max)?;
     }
