@@ -130,6 +130,23 @@ fn every_version_reads_with_scale_offset_scans_and_times() {
         }
         assert_eq!(c.crs, None, "{at}");
         assert_eq!(c.source.units, "m (assumed)", "{at}");
+
+        // With static poses the times are not read; the points and scans are the same.
+        let sidecar = path(&format!("v1{minor}-f{format}.poses.json"));
+        std::fs::write(
+            &sidecar,
+            r#"{"scans": [{"index": 11, "position": [512001, 5400002, 201.5], "quaternion": [1, 0, 0, 0]},
+                          {"index": 4, "position": [512003, 5400001, 201.5], "quaternion": [1, 0, 0, 0]}]}"#,
+        )
+        .unwrap();
+        let posed = io::read_scan(
+            &p,
+            Some((io::SidecarKind::Poses, &sidecar)),
+            &io::ReadOptions::default(),
+        )
+        .unwrap();
+        assert!(posed.time.is_empty(), "{at}: a posed scan kept its times");
+        assert_eq!((&posed.xyz, &posed.scan), (&c.xyz, &c.scan), "{at}");
     }
 }
 
