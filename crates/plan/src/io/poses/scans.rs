@@ -62,7 +62,8 @@ pub fn parse_poses(text: &str) -> Result<Vec<ScanPose>, PosesError> {
 /// Attaches world-frame static poses to a cloud whose points name their scans.
 ///
 /// Every scan the cloud names needs a pose and every pose must name a scan of the cloud. A cloud
-/// that names no scans takes exactly one pose, which then applies to every point.
+/// that names no scans takes exactly one pose, which then applies to every point. The points'
+/// times are dropped.
 pub fn attach_poses(cloud: &mut PointCloud, poses: Vec<ScanPose>) -> Result<(), PosesError> {
     if poses.is_empty() {
         return Err(PosesError::Mismatch("the pose file lists no scans".into()));
