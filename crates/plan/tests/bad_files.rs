@@ -716,6 +716,22 @@ fn laz_layers_larger_than_their_chunk_are_refused_before_the_decoder_allocates_t
     );
 }
 
+#[test]
+fn a_laszip_vlr_behind_a_short_header_size_is_checked_where_the_decoder_finds_it() {
+    // The header says 371 bytes, short of LAS 1.4's 375. The decoder reads all 375 and finds
+    // the LASzip VLR after them; the checks looked at byte 371, found none, and let the
+    // decoder zero 60 MB of layers for a 2,723-byte file.
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz_regressions");
+    let path = dir.join("las-oom-header-size-short-of-its-version.laz");
+    let err = io::read_cloud(&path).expect_err("a fuzz finding must not read");
+    check(
+        &path,
+        &err,
+        "(laz)",
+        &["the chunk table's 0 chunks hold 0 points, fewer than the 60 the header claims"],
+    );
+}
+
 /// Inputs the fuzz targets found (`fuzz/`), kept as files: each must give a clean error.
 #[test]
 fn fuzz_findings_stay_fixed() {

@@ -897,7 +897,9 @@ fn laszip_items<R: Read + Seek>(
 ) -> Result<Option<(u16, u32, Vec<(u16, u16)>)>, ReadError> {
     let io = |e: std::io::Error| ReadError::io(name, e);
     let end = u64::from(raw.offset_to_point_data);
-    let mut at = u64::from(raw.header_size);
+    // The decoder reads the version's whole header even when `header_size` says less, and
+    // the VLRs after it: look where it looks, or a VLR it finds is missed here.
+    let mut at = u64::from(raw.header_size.max(raw.version.header_size()));
     for _ in 0..raw.number_of_variable_length_records {
         if at + 54 > end {
             break;
