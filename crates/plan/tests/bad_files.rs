@@ -685,12 +685,8 @@ fn laz_layers_larger_than_their_chunk_are_refused_before_the_decoder_allocates_t
     // The serial decoder takes a fixed-size chunk's points from the chunk size, not from the
     // count the chunk declares; a fuzzed file whose counts were larger hid a chunk declaring
     // a 1.6 GB layer from the check, and the read took 1.6 GB for 2,716 bytes.
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz_regressions");
-    let path = dir.join("las-oom-layer-size-past-declared-count.laz");
-    let err = io::read_cloud(&path).expect_err("a fuzz finding must not read");
-    check(
-        &path,
-        &err,
+    finding_fails(
+        "las-oom-layer-size-past-declared-count.laz",
         "(laz)",
         &["compressed chunk 11 declares a layer of 1604696076 bytes, past the end of the 2716-byte file"],
     );
@@ -721,15 +717,20 @@ fn a_laszip_vlr_behind_a_short_header_size_is_checked_where_the_decoder_finds_it
     // The header says 371 bytes, short of LAS 1.4's 375. The decoder reads all 375 and finds
     // the LASzip VLR after them; the checks looked at byte 371, found none, and let the
     // decoder zero 60 MB of layers for a 2,723-byte file.
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz_regressions");
-    let path = dir.join("las-oom-header-size-short-of-its-version.laz");
-    let err = io::read_cloud(&path).expect_err("a fuzz finding must not read");
-    check(
-        &path,
-        &err,
+    finding_fails(
+        "las-oom-header-size-short-of-its-version.laz",
         "(laz)",
         &["the chunk table's 0 chunks hold 0 points, fewer than the 60 the header claims"],
     );
+}
+
+/// Reads the fuzz finding `name` (in `tests/fuzz_regressions/`), which must fail with `want`.
+fn finding_fails(name: &str, format: &str, want: &[&str]) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fuzz_regressions")
+        .join(name);
+    let err = io::read_cloud(&path).expect_err("a fuzz finding must not read");
+    check(&path, &err, format, want);
 }
 
 /// Inputs the fuzz targets found (`fuzz/`), kept as files: each must give a clean error.
