@@ -169,26 +169,34 @@ fn boundary_runs(samples: &BoundarySamples, ids: &[usize]) -> Vec<Vec<usize>> {
     runs
 }
 
-/// Samples reachable from `start` within `hops` boundary edges, `start` excluded.
-fn neighbourhood(samples: &BoundarySamples, start: usize, hops: usize) -> Vec<usize> {
+/// Samples reachable from `start` within `hops` boundary edges, `start` excluded, in the
+/// order a breadth-first search meets them. `marks` (one a sample, all false) is left as found.
+fn neighbourhood(
+    samples: &BoundarySamples,
+    start: usize,
+    hops: usize,
+    marks: &mut [bool],
+) -> Vec<usize> {
     let mut seen = vec![start];
-    let mut frontier = vec![start];
+    marks[start] = true;
+    let mut from = 0;
     for _ in 0..hops {
-        let mut next = Vec::new();
-        for &v in &frontier {
-            for &w in &samples.adj[v] {
+        let to = seen.len();
+        for k in from..to {
+            for &w in &samples.adj[seen[k]] {
                 let w = w as usize;
-                if !seen.contains(&w) {
+                if !marks[w] {
+                    marks[w] = true;
                     seen.push(w);
-                    next.push(w);
                 }
             }
         }
-        if next.is_empty() {
+        if seen.len() == to {
             break;
         }
-        frontier = next;
+        from = to;
     }
+    seen.iter().for_each(|&v| marks[v] = false);
     seen.remove(0);
     seen
 }
@@ -208,12 +216,13 @@ fn best_model(
     let mut best: Option<(f64, Model, f64)> = None;
     let mut needed = params.iterations;
     let mut it = 0;
+    let mut marks = vec![false; samples.pos.len()];
     while it < needed.min(params.iterations) {
         // An iteration scores two models against the whole pool: check every time.
         cancel.check()?;
         it += 1;
         let a = ids[rng.random_range(0..ids.len())];
-        let near: Vec<usize> = neighbourhood(samples, a, window)
+        let near: Vec<usize> = neighbourhood(samples, a, window, &mut marks)
             .into_iter()
             .filter(|&j| in_pool[j])
             .collect();
@@ -353,6 +362,29 @@ mod tests {
             adj,
             oriented,
         }
+    }
+
+    #[test]
+    fn a_neighbourhood_is_met_hop_by_hop_and_leaves_the_marks_clear() {
+        // A loop of 10 samples, and a spur 9 - 10 - 11 hanging off it.
+        let mut s = loop_samples(vec![[0.0, 0.0]; 10], vec![None; 10]);
+        s.pos.extend([[0.0, 0.0]; 2]);
+        s.adj[9].push(10);
+        s.adj.push(vec![9, 11]);
+        s.adj.push(vec![10]);
+        let mut marks = vec![false; 12];
+        // Hop 1: 9's neighbours in their order; hop 2: theirs, not met before.
+        assert_eq!(
+            neighbourhood(&s, 9, 2, &mut marks),
+            vec![8, 0, 10, 7, 1, 11]
+        );
+        assert!(marks.iter().all(|m| !m));
+        assert_eq!(neighbourhood(&s, 3, 1, &mut marks), vec![2, 4]);
+        // The whole loop is within 5 hops of any sample; 8 hops stop once nothing is new.
+        let all = neighbourhood(&s, 0, 8, &mut marks);
+        assert_eq!(all.len(), 11);
+        assert!(!all.contains(&0));
+        assert!(marks.iter().all(|m| !m));
     }
 
     #[test]
