@@ -41,6 +41,9 @@ pub struct BenchArgs {
     /// Also run the streaming mode (`plan --max-memory SIZE`) on every size and format.
     #[arg(long, value_name = "SIZE")]
     pub max_memory: Option<String>,
+    /// Skip the pipeline table (`--sizes` by `--formats`).
+    #[arg(long)]
+    pub no_plan_table: bool,
     /// Skip the in-memory pipeline runs (with `--max-memory`: streaming runs only).
     #[arg(long)]
     pub no_in_memory: bool,
@@ -70,6 +73,13 @@ pub struct BenchArgs {
     /// Skip the upload table.
     #[arg(long)]
     pub no_upload_table: bool,
+    /// Points of the fitting table's building: `dense_office`, two stories of about 30 rooms
+    /// each, planned with and without its scanner poses.
+    #[arg(long, default_value = "1.14M")]
+    pub fit_size: String,
+    /// Skip the fitting table.
+    #[arg(long)]
+    pub no_fit_table: bool,
     /// Time each command this many times and keep the fastest run.
     #[arg(long, default_value_t = 1)]
     pub repeat: usize,
@@ -181,6 +191,57 @@ struct ReadRun {
     compact_bytes: u64,
 }
 
+/// One row of the fitting table: how much of a plan of many rooms the fitting takes.
+#[derive(Debug, Serialize)]
+struct FitRun {
+    building: &'static str,
+    points: u64,
+    /// Planned with the scanner poses; without them the scanners are located first.
+    poses: bool,
+    /// RAYON_NUM_THREADS, or `None` for rayon's default.
+    threads: Option<usize>,
+    plan_ms: f64,
+    /// The plan's own total (`total`) and fitting (`fit`) times, ms.
+    total_ms: u64,
+    fit_ms: u64,
+    /// `fit_ms / total_ms`.
+    fit_share: f64,
+    /// The stage that took longest, and its time, ms.
+    largest_stage: String,
+    largest_ms: u64,
+}
+
+impl FitRun {
+    fn of(
+        building: &'static str,
+        points: u64,
+        poses: bool,
+        threads: Option<usize>,
+        run: &ChildRun,
+    ) -> FitRun {
+        let get = |k: &str| run.stages.get(k).copied().unwrap_or(0);
+        let (total_ms, fit_ms) = (get("total"), get("fit"));
+        let (largest_stage, largest_ms) = run
+            .stages
+            .iter()
+            .filter(|(k, _)| k.as_str() != "total")
+            .max_by_key(|(_, &v)| v)
+            .map_or((String::new(), 0), |(k, &v)| (k.clone(), v));
+        FitRun {
+            building,
+            points,
+            poses,
+            threads,
+            plan_ms: run.wall_ms,
+            total_ms,
+            fit_ms,
+            fit_share: fit_ms as f64 / total_ms.max(1) as f64,
+            largest_stage,
+            largest_ms,
+        }
+    }
+}
+
 #[derive(Debug, Serialize)]
 struct Report {
     machine: String,
@@ -193,6 +254,7 @@ struct Report {
     speedups: Vec<Speedup>,
     read_runs: Vec<ReadRun>,
     upload_runs: Vec<super::bench_upload::UploadRun>,
+    fit_runs: Vec<FitRun>,
 }
 
 /// How much faster each stage ran with `threads` threads than with `base_threads`.
@@ -248,7 +310,12 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
     }
 
     let mut plan_runs = Vec::new();
-    for &n in &sizes {
+    let plan_sizes = if args.no_plan_table {
+        &[][..]
+    } else {
+        &sizes[..]
+    };
+    for &n in plan_sizes {
         let dir = ensure_files(&args.cache, n, &args.formats)?;
         for &format in &args.formats {
             let file = dir.join(format.file_name());
@@ -258,7 +325,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
             for mode in &modes {
                 for &t in &threads {
                     let out = best_of(args.repeat, || {
-                        plan_run(&exe, &file, format, &dir, mode.as_deref(), t)
+                        plan_run(&exe, &file, format.read_args(&dir), mode.as_deref(), t)
                     })?;
                     let run = PlanRun {
                         points: n,
@@ -365,7 +432,39 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
         }
     }
 
+    let mut fit_runs = Vec::new();
+    if !args.no_fit_table {
+        let n = parse_count(&args.fit_size)?;
+        let kind = BuildingKind::DenseOffice;
+        let dir = ensure_building(&args.cache, kind, FIT_SEED, n, &[BenchFormat::Ply])?;
+        let file = dir.join(BenchFormat::Ply.file_name());
+        time_cat(&file, 1)?;
+        for poses in [true, false] {
+            let read_args = if poses {
+                BenchFormat::Ply.read_args(&dir)
+            } else {
+                Vec::new()
+            };
+            for &t in &threads {
+                let out = best_of(args.repeat, || {
+                    plan_run(&exe, &file, read_args.clone(), None, t)
+                })?;
+                let row = FitRun::of(kind.name(), n, poses, t, &out);
+                eprintln!(
+                    "bench: {} {} points, poses {poses}, threads {}: fit {} of {} ms",
+                    row.building,
+                    n,
+                    t.map_or("default".into(), |t| t.to_string()),
+                    row.fit_ms,
+                    row.total_ms
+                );
+                fit_runs.push(row);
+            }
+        }
+    }
+
     let report = Report {
+        fit_runs,
         upload_runs,
         machine: machine(),
         load_average: std::fs::read_to_string("/proc/loadavg")
@@ -400,9 +499,24 @@ fn parse_count(text: &str) -> anyhow::Result<u64> {
     Ok((v * mult).round() as u64)
 }
 
-/// The folder of the `n`-point building, with every file in `formats` written (once).
+/// The seed of the fitting table's building (the one `examples/score` was first timed on).
+const FIT_SEED: u64 = 33;
+
+/// The folder of the `n`-point office, with every file in `formats` written (once).
 fn ensure_files(cache: &Path, n: u64, formats: &[BenchFormat]) -> anyhow::Result<PathBuf> {
-    let dir = cache.join(format!("office_3story-{n}"));
+    ensure_building(cache, BuildingKind::Office3Story, 1, n, formats)
+}
+
+/// The folder of building `kind` scanned with `n` points from `seed`, with every file in
+/// `formats` and the pose sidecar written (once).
+fn ensure_building(
+    cache: &Path,
+    kind: BuildingKind,
+    seed: u64,
+    n: u64,
+    formats: &[BenchFormat],
+) -> anyhow::Result<PathBuf> {
+    let dir = cache.join(format!("{}-{n}", kind.name()));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let poses_path = dir.join("poses.json");
     let missing: Vec<BenchFormat> = formats
@@ -414,15 +528,16 @@ fn ensure_files(cache: &Path, n: u64, formats: &[BenchFormat]) -> anyhow::Result
         return Ok(dir);
     }
     eprintln!(
-        "bench: simulating office_3story with {n} points into {}",
+        "bench: simulating {} with {n} points into {}",
+        kind.name(),
         dir.display()
     );
     let start = Instant::now();
     let sim = simulate(
-        BuildingKind::Office3Story,
+        kind,
         &ScanOptions {
             points: usize::try_from(n).context("too many points")?,
-            seed: 1,
+            seed,
             ..Default::default()
         },
     )?;
@@ -565,8 +680,7 @@ fn info_run(
 fn plan_run(
     exe: &Path,
     file: &Path,
-    format: BenchFormat,
-    dir: &Path,
+    read_args: Vec<OsString>,
     max_memory: Option<&str>,
     threads: Option<usize>,
 ) -> anyhow::Result<ChildRun> {
@@ -581,7 +695,7 @@ fn plan_run(
         "--timings".into(),
         timings.clone().into(),
     ];
-    args.extend(format.read_args(dir));
+    args.extend(read_args);
     if let Some(m) = max_memory {
         args.push("--max-memory".into());
         args.push(m.into());
@@ -814,6 +928,28 @@ fn markdown(r: &Report) -> String {
             );
         }
     }
+    if !r.fit_runs.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n| building | points | poses | threads | plan ms | total ms | fit ms | fit share | largest stage |\n|---|---|---|---|---|---|---|---|---|"
+        );
+        for x in &r.fit_runs {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {:.0} | {} | {} | {:.1} % | {} ({} ms) |",
+                x.building,
+                count(x.points),
+                if x.poses { "yes" } else { "no" },
+                x.threads.map_or("default".to_string(), |t| t.to_string()),
+                x.plan_ms,
+                x.total_ms,
+                x.fit_ms,
+                100.0 * x.fit_share,
+                x.largest_stage,
+                x.largest_ms,
+            );
+        }
+    }
     if !r.upload_runs.is_empty() {
         let _ = writeln!(
             s,
@@ -924,6 +1060,41 @@ mod tests {
         assert_eq!(e.len(), 1);
         assert!((e[0].exponent - 1.0).abs() < 1e-9, "{}", e[0].exponent);
         assert_eq!((e[0].from_points, e[0].to_points), (1_000_000, 70_000_000));
+    }
+
+    #[test]
+    fn a_fit_row_takes_the_share_and_the_largest_stage_from_the_plan_s_own_times() {
+        let out = ChildRun {
+            wall_ms: 420.0,
+            cpu_ms: 700.0,
+            peak_rss: 0,
+            stages: BTreeMap::from([
+                ("samples".to_string(), 110),
+                ("label".to_string(), 150),
+                ("fit".to_string(), 40),
+                ("total".to_string(), 320),
+            ]),
+        };
+        let row = FitRun::of("dense_office", 1_140_000, true, Some(2), &out);
+        assert_eq!((row.fit_ms, row.total_ms), (40, 320));
+        assert!((row.fit_share - 0.125).abs() < 1e-12);
+        assert_eq!((row.largest_stage.as_str(), row.largest_ms), ("label", 150));
+        let text = markdown(&Report {
+            machine: String::new(),
+            load_average: String::new(),
+            plan_runs: Vec::new(),
+            exponents: Vec::new(),
+            speedups: Vec::new(),
+            read_runs: Vec::new(),
+            upload_runs: Vec::new(),
+            fit_runs: vec![row],
+        });
+        assert!(
+            text.contains(
+                "| dense_office | 1.1M | yes | 2 | 420 | 320 | 40 | 12.5 % | label (150 ms) |"
+            ),
+            "{text}"
+        );
     }
 
     #[test]
