@@ -247,6 +247,9 @@ struct Report {
     machine: String,
     /// The 1-minute load average when the bench finished: other work on the machine slows it.
     load_average: String,
+    /// The share of the CPUs' time, in per cent, that a virtual machine's host gave to other
+    /// work while the bench ran (`steal` in `/proc/stat`); `None` where it cannot be read.
+    steal_percent: Option<f64>,
     plan_runs: Vec<PlanRun>,
     /// Per format, mode and thread count: the slope of log(plan time) over log(points).
     exponents: Vec<Exponent>,
@@ -281,6 +284,7 @@ struct Exponent {
 }
 
 pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
+    let cpu_at_start = cpu_times();
     let exe = std::env::current_exe().context("finding the asbuilt binary")?;
     let sizes: Vec<u64> = args
         .sizes
@@ -470,6 +474,9 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
         load_average: std::fs::read_to_string("/proc/loadavg")
             .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
             .unwrap_or_default(),
+        steal_percent: cpu_at_start
+            .zip(cpu_times())
+            .and_then(|(a, b)| a.steal_percent_until(&b)),
         exponents: exponents(&plan_runs),
         speedups: speedups(&plan_runs),
         plan_runs,
@@ -800,14 +807,68 @@ fn machine() -> String {
     format!("{cpus} threads, {model}")
 }
 
+/// All CPUs' time since boot, from the first line of `/proc/stat`, in clock ticks.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct CpuTimes {
+    /// Time the hypervisor ran something else while this machine's CPUs wanted to run.
+    steal: u64,
+    /// Every field: user, nice, system, idle, iowait, irq, softirq, steal.
+    total: u64,
+}
+
+impl CpuTimes {
+    /// Reads the `cpu` line of `/proc/stat`'s text; `None` when it has no steal field.
+    fn parse(stat: &str) -> Option<CpuTimes> {
+        let line = stat.lines().find(|l| l.starts_with("cpu "))?;
+        // Guest time is counted in user time already: the first eight fields are the whole.
+        let fields: Vec<u64> = line
+            .split_whitespace()
+            .skip(1)
+            .take(8)
+            .map(|f| f.parse().ok())
+            .collect::<Option<_>>()?;
+        (fields.len() == 8).then(|| CpuTimes {
+            steal: fields[7],
+            total: fields.iter().sum(),
+        })
+    }
+
+    /// The steal's share of the time from `self` to `later`, in per cent.
+    fn steal_percent_until(&self, later: &CpuTimes) -> Option<f64> {
+        let total = later.total.checked_sub(self.total)?;
+        let steal = later.steal.checked_sub(self.steal)?;
+        (total > 0).then(|| 100.0 * steal as f64 / total as f64)
+    }
+}
+
+fn cpu_times() -> Option<CpuTimes> {
+    CpuTimes::parse(&std::fs::read_to_string("/proc/stat").ok()?)
+}
+
 /// The report as markdown tables.
 fn markdown(r: &Report) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "Machine: {}; load average at the end: {}\n",
+        "Machine: {}; load average at the end: {}",
         r.machine, r.load_average
     );
+    // On a virtual machine whose host is busy, every time below is longer than the machine's
+    // own: say so beside the figures.
+    match r.steal_percent {
+        Some(p) if p >= 1.0 => {
+            let _ = writeln!(
+                s,
+                "The host took {p:.1} % of the CPUs' time while the bench ran (steal): the times \
+                 are that much slower than an idle host gives."
+            );
+        }
+        Some(p) => {
+            let _ = writeln!(s, "Time taken by the host (steal): {p:.1} %.");
+        }
+        None => {}
+    }
+    let _ = writeln!(s);
     if !r.plan_runs.is_empty() {
         let _ = writeln!(
             s,
@@ -1020,6 +1081,32 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_host_s_share_is_the_steal_over_all_the_time_between_two_readings() {
+        let before = "cpu  100 5 50 800 10 0 5 30 7 0\ncpu0 50 2 25 400 5 0 2 15 3 0\n";
+        let after = "cpu  200 5 90 1500 10 0 5 190 9 0\ncpu0 1 1 1 1 1 1 1 1 1 1\n";
+        let (a, b) = (
+            CpuTimes::parse(before).unwrap(),
+            CpuTimes::parse(after).unwrap(),
+        );
+        // Guest time (the ninth field) is in user time already and is not added again.
+        assert_eq!(
+            a,
+            CpuTimes {
+                steal: 30,
+                total: 1000
+            }
+        );
+        // 160 ticks stolen of 1,000 between the two.
+        let p = a.steal_percent_until(&b).unwrap();
+        assert!((p - 16.0).abs() < 1e-12, "{p}");
+        assert_eq!(b.steal_percent_until(&a), None);
+        assert_eq!(a.steal_percent_until(&a), None);
+        // An old kernel's line without a steal field, and no cpu line at all.
+        assert_eq!(CpuTimes::parse("cpu  1 2 3 4 5 6 7\n"), None);
+        assert_eq!(CpuTimes::parse("intr 5\n"), None);
+    }
+
+    #[test]
     fn counts_parse_with_suffixes() {
         assert_eq!(parse_count("17.4M").unwrap(), 17_400_000);
         assert_eq!(parse_count("200k").unwrap(), 200_000);
@@ -1082,6 +1169,7 @@ mod tests {
         let text = markdown(&Report {
             machine: String::new(),
             load_average: String::new(),
+            steal_percent: Some(12.5),
             plan_runs: Vec::new(),
             exponents: Vec::new(),
             speedups: Vec::new(),
@@ -1093,6 +1181,10 @@ mod tests {
             text.contains(
                 "| dense_office | 1.1M | yes | 2 | 420 | 320 | 40 | 12.5 % | label (150 ms) |"
             ),
+            "{text}"
+        );
+        assert!(
+            text.contains("The host took 12.5 % of the CPUs' time while the bench ran"),
             "{text}"
         );
     }
