@@ -339,47 +339,212 @@ pub(crate) fn fit_circle(pts: &[P2]) -> Option<(P2, f64)> {
 /// square root and divisions are most of its time, and round the same either way).
 const LANES: usize = 64;
 
+/// A static scan's points in patches: sorted by a grid of [`PATCH`] cells, then cut into
+/// chunks of [`LANES`], each with its horizontal box and lowest height. A fit looks for every
+/// sector's lowest point some 40 times, and most chunks (floor beyond the blind spot, anything
+/// above the scanner) hold none: from its box alone a chunk is seen to lie above the lowest
+/// point found so far in every sector it may reach, and is passed over.
+struct Patches {
+    /// The points, sorted, and each one's index among the scan's.
+    pts: Vec<[f64; 3]>,
+    index: Vec<usize>,
+    boxes: Vec<ChunkBox>,
+}
+
+/// The patches' grid cell, metres.
+const PATCH: f64 = 0.25;
+
+impl Patches {
+    fn of(pts: &[[f64; 3]]) -> Patches {
+        // Counting-sorted by cell, row by row; within a cell the points keep the scan's order.
+        // The cells widen where the scan spans far more of them than it has points.
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for p in pts {
+            lo = [lo[0].min(p[0]), lo[1].min(p[1])];
+            hi = [hi[0].max(p[0]), hi[1].max(p[1])];
+        }
+        let mut cell = PATCH;
+        let cells = |cell: f64| {
+            let span = |k: usize| ((hi[k] - lo[k]) / cell).min(1e9) as usize + 1;
+            (span(0), span(1))
+        };
+        while cells(cell).0.saturating_mul(cells(cell).1) > 4 * pts.len() + 16 {
+            cell *= 2.0;
+        }
+        let (nx, ny) = cells(cell);
+        let key = |p: &[f64; 3]| {
+            let i = (((p[0] - lo[0]) / cell) as usize).min(nx - 1);
+            let j = (((p[1] - lo[1]) / cell) as usize).min(ny - 1);
+            j * nx + i
+        };
+        let keys: Vec<usize> = pts.iter().map(key).collect();
+        let mut start = vec![0usize; nx * ny + 1];
+        for &k in &keys {
+            start[k + 1] += 1;
+        }
+        for k in 0..nx * ny {
+            start[k + 1] += start[k];
+        }
+        let mut index = vec![0usize; pts.len()];
+        for (i, &k) in keys.iter().enumerate() {
+            index[start[k]] = i;
+            start[k] += 1;
+        }
+        let pts: Vec<[f64; 3]> = index.iter().map(|&i| pts[i]).collect();
+        let boxes = pts
+            .chunks(LANES)
+            .map(|chunk| {
+                let mut b = ChunkBox {
+                    lo: [f64::INFINITY; 2],
+                    hi: [f64::NEG_INFINITY; 2],
+                    zmin: f64::INFINITY,
+                };
+                for p in chunk {
+                    b.lo = [b.lo[0].min(p[0]), b.lo[1].min(p[1])];
+                    b.hi = [b.hi[0].max(p[0]), b.hi[1].max(p[1])];
+                    b.zmin = b.zmin.min(p[2]);
+                }
+                b
+            })
+            .collect();
+        Patches { pts, index, boxes }
+    }
+}
+
+/// A chunk's horizontal box and lowest height.
+#[derive(Debug, Clone, Copy)]
+struct ChunkBox {
+    lo: [f64; 2],
+    hi: [f64; 2],
+    zmin: f64,
+}
+
+/// Bounds are loosened by this much against rounding (relative).
+const LOOSE: f64 = 1e-9;
+
+impl ChunkBox {
+    /// Whether no point of the chunk can be the lowest of its sector seen from `c`, given the
+    /// lowest elevations found so far, `best` (which only fall): every point lies strictly
+    /// above the lowest found in each sector the box may reach. Ties are never passed over.
+    fn above(&self, c: [f64; 3], best: &[Option<(f64, usize)>], sectors: f64) -> bool {
+        let dz = self.zmin - c[2];
+        // Subtraction rounds monotonically: no point of the chunk is below the apex.
+        if dz >= 0.0 {
+            return true;
+        }
+        let gx = (self.lo[0] - c[0]).max(c[0] - self.hi[0]).max(0.0);
+        let gy = (self.lo[1] - c[1]).max(c[1] - self.hi[1]).max(0.0);
+        let gap = (gx * gx + gy * gy).sqrt() * (1.0 - LOOSE);
+        // Near the apex (or around it) the box reaches every sector and bounds no elevation.
+        if gap <= 0.05 {
+            return false;
+        }
+        // The most negative elevation any point of the chunk can have.
+        let lowest = dz / gap;
+        // Seen from outside, a box spans less than half a turn, from one corner to another.
+        let corners = [
+            [self.lo[0], self.lo[1]],
+            [self.hi[0], self.lo[1]],
+            [self.lo[0], self.hi[1]],
+            [self.hi[0], self.hi[1]],
+        ]
+        .map(|q| diamond_angle(q[0] - c[0], q[1] - c[1]));
+        let (mut from, mut to) = (0.0f64, 0.0f64);
+        for a in &corners[1..] {
+            // The turn from the first corner, into (-2, 2].
+            let mut t = a - corners[0];
+            if t > 2.0 {
+                t -= 4.0;
+            } else if t <= -2.0 {
+                t += 4.0;
+            }
+            from = from.min(t);
+            to = to.max(t);
+        }
+        let n = best.len() as i64;
+        let first = ((corners[0] + from) / 4.0 * sectors - LOOSE).floor() as i64;
+        let last = ((corners[0] + to) / 4.0 * sectors + LOOSE).floor() as i64;
+        (first..=last).all(|k| {
+            best[k.rem_euclid(n) as usize].is_some_and(|(b, _)| lowest > b + LOOSE * b.abs())
+        })
+    }
+}
+
 /// For each sector around the scanner (where it was when each point was taken), the index of
-/// the point below it with the lowest elevation.
-fn lowest_per_sector(obs: &Obs, cone: &Cone, params: &ConeParams) -> Vec<usize> {
+/// the point below it with the lowest elevation; of several as low, the first. With `skip`
+/// (`obs`'s points in patches; a static scan only), the points `seeds` (say, the last apex's
+/// lowest) are looked at first, then the patches' chunks but those their boxes show to hold
+/// no sector's lowest: the same points are found.
+fn lowest_per_sector(
+    obs: &Obs,
+    cone: &Cone,
+    params: &ConeParams,
+    skip: Option<(&Patches, &[usize])>,
+) -> Vec<usize> {
     let n = params.sectors;
     let mut best: Vec<Option<(f64, usize)>> = vec![None; n];
     let reach2 = params.reach * params.reach;
+    let look = |p: &[f64; 3], c: [f64; 3]| -> (bool, f64, f64) {
+        let (dx, dy, dz) = (p[0] - c[0], p[1] - c[1], p[2] - c[2]);
+        let d2 = dx * dx + dy * dy;
+        (
+            !(dz >= 0.0 || d2 < 1e-4 || d2 > reach2),
+            // tan of the elevation: the most negative is the lowest.
+            dz / d2.sqrt(),
+            diamond_angle(dx, dy) / 4.0 * n as f64,
+        )
+    };
+    // Lower, or as low and earlier: the points may come out of order.
+    let offer = |best: &mut [Option<(f64, usize)>], e: f64, sector: f64, i: usize| {
+        let k = (sector as usize).min(n - 1);
+        if best[k].is_none_or(|(b, j)| e < b || (e == b && i < j)) {
+            best[k] = Some((e, i));
+        }
+    };
+    if let Some((_, seeds)) = skip {
+        let c = cone.position(0.0);
+        for &i in seeds {
+            if let (true, e, sector) = look(&obs.pts[i], c) {
+                offer(&mut best, e, sector, i);
+            }
+        }
+    }
     let (mut elev, mut sector, mut seen) = ([0.0f64; LANES], [0.0f64; LANES], [false; LANES]);
-    for (c, chunk) in obs.pts.chunks(LANES).enumerate() {
+    let (pts, index) = match skip {
+        Some((patches, _)) => (&patches.pts[..], Some(&patches.index[..])),
+        None => (obs.pts, None),
+    };
+    for (c, chunk) in pts.chunks(LANES).enumerate() {
+        if let Some((patches, _)) = skip {
+            if patches.boxes[c].above(cone.position(0.0), &best, n as f64) {
+                continue;
+            }
+        }
         let first = c * LANES;
         let (elev, sector, seen) = (
             &mut elev[..chunk.len()],
             &mut sector[..chunk.len()],
             &mut seen[..chunk.len()],
         );
-        let mut look = |j: usize, p: &[f64; 3], c: [f64; 3]| {
-            let (dx, dy, dz) = (p[0] - c[0], p[1] - c[1], p[2] - c[2]);
-            let d2 = dx * dx + dy * dy;
-            seen[j] = !(dz >= 0.0 || d2 < 1e-4 || d2 > reach2);
-            // tan of the elevation: the most negative is the lowest.
-            elev[j] = dz / d2.sqrt();
-            sector[j] = diamond_angle(dx, dy) / 4.0 * n as f64;
+        let mut at = |j: usize, p: &[f64; 3], c: [f64; 3]| {
+            (seen[j], elev[j], sector[j]) = look(p, c);
         };
         match obs.dt {
             // A static scanner stands in one place for every point.
             None => {
                 let c = cone.position(0.0);
-                chunk.iter().enumerate().for_each(|(j, p)| look(j, p, c));
+                chunk.iter().enumerate().for_each(|(j, p)| at(j, p, c));
             }
             // Indexed, not zipped: every point of the chunk gets its look.
             Some(dt) => chunk
                 .iter()
                 .enumerate()
-                .for_each(|(j, p)| look(j, p, cone.position(dt[first + j]))),
+                .for_each(|(j, p)| at(j, p, cone.position(dt[first + j]))),
         }
         for j in 0..chunk.len() {
-            if !seen[j] {
-                continue;
-            }
-            let (e, k) = (elev[j], (sector[j] as usize).min(n - 1));
-            if best[k].is_none_or(|(b, _)| e < b) {
-                best[k] = Some((e, first + j));
+            if seen[j] {
+                let i = index.map_or(first + j, |index| index[first + j]);
+                offer(&mut best, elev[j], sector[j], i);
             }
         }
     }
@@ -444,6 +609,16 @@ fn fit_cone(
         dt: kept_dt.as_deref(),
     };
     let mut cone = start;
+    // A static scan's points are looked at in patches, passed over where their boxes show no
+    // lowest point, the last step's lowest points first; a moving scan's apex differs from
+    // point to point.
+    let patches = obs.dt.is_none().then(|| Patches::of(obs.pts));
+    let mut last: Vec<usize> = Vec::new();
+    let mut lowest = |cone: &Cone| -> Vec<usize> {
+        let b = lowest_per_sector(obs, cone, params, patches.as_ref().map(|p| (p, &last[..])));
+        last.clone_from(&b);
+        b
+    };
     let residuals = |cone: &Cone, b: &[usize]| -> Vec<(f64, Vector6<f64>)> {
         let t = cone.slope;
         b.iter()
@@ -459,7 +634,7 @@ fn fit_cone(
             .collect()
     };
     for _ in 0..40 {
-        let b = lowest_per_sector(obs, &cone, params);
+        let b = lowest(&cone);
         if b.len() < 8 {
             return None;
         }
@@ -510,7 +685,7 @@ fn fit_cone(
             break;
         }
     }
-    let b = lowest_per_sector(obs, &cone, params);
+    let b = lowest(&cone);
     let on: Vec<f64> = residuals(&cone, &b)
         .into_iter()
         .map(|x| x.0)
@@ -618,11 +793,107 @@ pub(crate) mod tests {
             };
             for dt in [None, Some(&dt[..])] {
                 let obs = Obs { pts: &pts, dt };
-                let got = lowest_per_sector(&obs, &cone, &params);
+                let got = lowest_per_sector(&obs, &cone, &params, None);
                 assert!(got.len() > 60, "{}", got.len());
                 assert_eq!(got, lowest_one_by_one(&obs, &cone, &params));
             }
         }
+    }
+
+    #[test]
+    fn patches_passed_over_change_no_sector_s_lowest_point() {
+        // A scan of a room with its blind spot, and the same points shuffled in with exact
+        // repeats (ties) and a second floor below; apexes around the scanner and far off it,
+        // with the seeds a step's lowest points would be, none, or arbitrary points.
+        let mut pts: Vec<[f64; 3]> = scan_room([3.0, 2.5], -55.0)
+            .iter()
+            .map(|p| p.map(f64::from))
+            .collect();
+        let repeats: Vec<[f64; 3]> = pts.iter().step_by(37).copied().collect();
+        pts.extend(repeats);
+        pts.extend((0..400).map(|k| [(k % 20) as f64 * 0.4, (k / 20) as f64 * 0.3, -0.5]));
+        let patches = Patches::of(&pts);
+        let params = ConeParams::default();
+        let obs = Obs {
+            pts: &pts,
+            dt: None,
+        };
+        let mut passed_over = 0;
+        for apex in [
+            [3.0, 2.5, 1.5],
+            [3.04, 2.47, 1.5],
+            [2.7, 2.9, 1.2],
+            [0.4, 0.3, 2.9],
+            [7.9, 5.9, 0.05],
+        ] {
+            let cone = Cone::at(apex, 1.0);
+            let want = lowest_one_by_one(&obs, &cone, &params);
+            assert!(want.len() >= 8, "{}", want.len());
+            let near = lowest_one_by_one(&obs, &Cone::at([3.1, 2.4, 1.4], 1.0), &params);
+            let arbitrary: Vec<usize> = (0..pts.len()).step_by(501).chain([7, 7, 0]).collect();
+            for seeds in [&want[..], &near[..], &[][..], &arbitrary[..]] {
+                let got = lowest_per_sector(&obs, &cone, &params, Some((&patches, seeds)));
+                assert_eq!(got, want, "apex {apex:?}");
+            }
+            // The boxes do rule chunks out once every sector has its lowest point.
+            let mut best = vec![None; params.sectors];
+            for &i in &want {
+                let p = pts[i];
+                let (dx, dy, dz) = (p[0] - apex[0], p[1] - apex[1], p[2] - apex[2]);
+                let k = ((diamond_angle(dx, dy) / 4.0 * params.sectors as f64) as usize)
+                    .min(params.sectors - 1);
+                best[k] = Some((dz / (dx * dx + dy * dy).sqrt(), i));
+            }
+            passed_over += patches
+                .boxes
+                .iter()
+                .filter(|b| b.above(apex, &best, params.sectors as f64))
+                .count();
+        }
+        assert!(passed_over > patches.boxes.len(), "{passed_over}");
+    }
+
+    #[test]
+    fn a_box_is_passed_over_only_above_every_sector_it_reaches() {
+        let sectors = 8.0;
+        // Four sectors of 45°: the lowest elevation found so far in each.
+        let mut best: Vec<Option<(f64, usize)>> = vec![Some((-1.0, 0)); 8];
+        let apex = [0.0, 0.0, 1.5];
+        // Floor 2-3 m east, a few centimetres either side of the axis: elevation -0.75 at
+        // its nearest, above -1 in the two sectors it reaches (7 and 0).
+        let far = ChunkBox {
+            lo: [2.0, -0.1],
+            hi: [3.0, 0.1],
+            zmin: 0.0,
+        };
+        assert!(far.above(apex, &best, sectors));
+        // One of those sectors has found nothing yet, or something higher: look.
+        best[7] = None;
+        assert!(!far.above(apex, &best, sectors));
+        best[7] = Some((-0.5, 0));
+        assert!(!far.above(apex, &best, sectors));
+        best[7] = Some((-1.0, 0));
+        // As low as the lowest found (a tie) is looked at: -1.5 / 1.5 = -1.
+        let tie = ChunkBox {
+            lo: [1.5, 0.0],
+            hi: [3.0, 0.2],
+            zmin: 0.0,
+        };
+        assert!(!tie.above(apex, &best, sectors));
+        // Above the apex, wherever it is: never a lowest point.
+        let high = ChunkBox {
+            lo: [0.2, 0.2],
+            hi: [0.5, 0.5],
+            zmin: 1.5,
+        };
+        assert!(high.above(apex, &best, sectors));
+        // Around the apex: no bound.
+        let around = ChunkBox {
+            lo: [-0.5, -0.5],
+            hi: [0.5, 0.5],
+            zmin: 1.0,
+        };
+        assert!(!around.above(apex, &best, sectors));
     }
 
     #[test]
