@@ -501,10 +501,11 @@ fn lowest_per_sector(
             best[k] = Some((e, i));
         }
     };
+    // Where a static scanner stands, for every point.
+    let apex = cone.position(0.0);
     if let Some((_, seeds)) = skip {
-        let c = cone.position(0.0);
         for &i in seeds {
-            if let (true, e, sector) = look(&obs.pts[i], c) {
+            if let (true, e, sector) = look(&obs.pts[i], apex) {
                 offer(&mut best, e, sector, i);
             }
         }
@@ -516,7 +517,7 @@ fn lowest_per_sector(
     };
     for (c, chunk) in pts.chunks(LANES).enumerate() {
         if let Some((patches, _)) = skip {
-            if patches.boxes[c].above(cone.position(0.0), &best, n as f64) {
+            if patches.boxes[c].above(apex, &best, n as f64) {
                 continue;
             }
         }
@@ -531,10 +532,7 @@ fn lowest_per_sector(
         };
         match obs.dt {
             // A static scanner stands in one place for every point.
-            None => {
-                let c = cone.position(0.0);
-                chunk.iter().enumerate().for_each(|(j, p)| at(j, p, c));
-            }
+            None => chunk.iter().enumerate().for_each(|(j, p)| at(j, p, apex)),
             // Indexed, not zipped: every point of the chunk gets its look.
             Some(dt) => chunk
                 .iter()
