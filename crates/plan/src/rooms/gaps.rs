@@ -374,11 +374,13 @@ pub(crate) fn lintels(
         |seen, q| {
             let z = q[2] as f64;
             let over = (z0..z1).contains(&z);
-            let high = (z0..top).contains(&z);
-            if !high && !(low.0..low.1).contains(&z) {
+            let high = (z0 <= z) & (z < top);
+            let lower = (low.0 <= z) & (z < low.1);
+            let p = [q[0] as f64, q[1] as f64];
+            // One branch, taken for nearly every point: few lie near a gap.
+            if !((high | lower) & index.any_near(p)) {
                 return;
             }
-            let p = [q[0] as f64, q[1] as f64];
             for &k in index.near(p) {
                 let g = &gaps[k];
                 let d = geom::sub(p, g.a);
@@ -570,6 +572,8 @@ pub(crate) struct BoxIndex {
     nx: usize,
     ny: usize,
     cells: Vec<Vec<usize>>,
+    /// Per cell, whether it lists any box.
+    occupied: Vec<bool>,
 }
 
 impl BoxIndex {
@@ -594,6 +598,7 @@ impl BoxIndex {
             nx,
             ny,
             cells: vec![Vec::new(); nx * ny],
+            occupied: Vec::new(),
         };
         for (k, b) in boxes.iter().enumerate() {
             let (i0, j0) = index.cell_of([b[0], b[1]]);
@@ -604,6 +609,7 @@ impl BoxIndex {
                 }
             }
         }
+        index.occupied = index.cells.iter().map(|c| !c.is_empty()).collect();
         index
     }
 
@@ -614,6 +620,19 @@ impl BoxIndex {
             (i.max(0.0) as usize).min(self.nx - 1),
             (j.max(0.0) as usize).min(self.ny - 1),
         )
+    }
+
+    /// Whether some box may hold `p`: what [`Self::near`] says by being non-empty, without a
+    /// branch. A pass over a story's points asks this first, so its one branch is taken the
+    /// same way for nearly every point, whatever order the points come in.
+    #[inline]
+    pub(crate) fn any_near(&self, p: P2) -> bool {
+        let i = (p[0] - self.origin[0]) * self.inv;
+        let j = (p[1] - self.origin[1]) * self.inv;
+        let inside = (i >= 0.0) & (j >= 0.0) & (i < self.nx as f64) & (j < self.ny as f64);
+        // Saturating casts: any value gives a cell, and `inside` says whether it is this one.
+        let k = (j as usize).min(self.ny - 1) * self.nx + (i as usize).min(self.nx - 1);
+        inside & self.occupied[k]
     }
 
     pub(crate) fn near(&self, p: P2) -> &[usize] {

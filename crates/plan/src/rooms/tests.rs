@@ -635,3 +635,36 @@ fn the_box_index_gives_each_point_the_boxes_over_its_cell_in_order() {
     assert!(index.near([-50.0, -50.0]).is_empty());
     assert!(index.near([f64::NAN, 1.0]).is_empty());
 }
+
+#[test]
+fn any_near_says_whether_near_lists_a_box() {
+    // Cells with boxes and without, the index's edges exactly, and points far off.
+    let boxes = [
+        [0.0, 0.0, 0.4, 0.4],
+        [3.0, 0.0, 3.2, 2.0],
+        [0.0, 1.9, 3.2, 2.0],
+    ];
+    let index = gaps::BoxIndex::new(&boxes);
+    let mut both = [0, 0];
+    for i in -20..60 {
+        for j in -20..60 {
+            let p = [i as f64 * 0.0625, j as f64 * 0.0625];
+            let listed = !index.near(p).is_empty();
+            assert_eq!(index.any_near(p), listed, "{p:?}");
+            both[usize::from(listed)] += 1;
+        }
+    }
+    // The grid above reached cells of both kinds.
+    assert!(both[0] > 100 && both[1] > 100, "{both:?}");
+    for p in [
+        [3.2, 2.0],
+        [3.2000001, 1.0],
+        [-1e-12, 0.1],
+        [f64::NAN, 1.0],
+        [1.0, f64::INFINITY],
+        [f64::NEG_INFINITY, 0.0],
+        [1e300, 1e300],
+    ] {
+        assert_eq!(index.any_near(p), !index.near(p).is_empty(), "{p:?}");
+    }
+}

@@ -281,6 +281,10 @@ fn refine(windows: &mut [Piece], story: &StoryPlan, points: &StoryPoints<'_>, st
         |edges, q| {
             let z = q[2] as f64 - story.floor_z;
             let p = [q[0] as f64, q[1] as f64];
+            // One branch, taken for nearly every point: few lie near a window.
+            if !index.any_near(p) {
+                return;
+            }
             for &k in index.near(p) {
                 let w = &windows[k];
                 let (u, len) = frames[k];
