@@ -167,27 +167,30 @@ impl Survey {
     /// Points per block: a block is read three times, from the core's cache after the first.
     const BLOCK: usize = 1 << 16;
 
+    /// One survey a thread, each over a contiguous share of the points. The spacing probe
+    /// keeps every point until its sample fills, then thins it level by level: a survey per
+    /// rayon split (16 on the 17.4 M-point office) pushed and thinned three times the points
+    /// that one a thread does. Every part merges the same in any grouping.
     fn of(xyz: &[[f32; 3]]) -> Survey {
-        xyz.par_chunks(Self::BLOCK)
-            .fold(
-                || Survey {
-                    finite: true,
-                    ..Survey::default()
-                },
-                |mut s, block| {
+        let fresh = || Survey {
+            finite: true,
+            ..Survey::default()
+        };
+        let share = xyz
+            .len()
+            .div_ceil(rayon::current_num_threads().max(1))
+            .max(Self::BLOCK);
+        xyz.par_chunks(share)
+            .map(|part| {
+                let mut s = fresh();
+                for block in part.chunks(Self::BLOCK) {
                     s.finite &= block.iter().all(|p| p.iter().all(|c| c.is_finite()));
                     block.iter().for_each(|p| s.heights.add(p[2]));
                     s.probe.add(block);
-                    s
-                },
-            )
-            .reduce(
-                || Survey {
-                    finite: true,
-                    ..Survey::default()
-                },
-                Survey::merge,
-            )
+                }
+                s
+            })
+            .reduce(fresh, Survey::merge)
     }
 
     fn merge(mut self, o: Survey) -> Survey {
@@ -660,6 +663,16 @@ mod tests {
         assert!(survey.finite && cloud.check().is_ok());
         assert_eq!(survey.probe, SpacingProbe::of(&cloud.xyz));
         assert!(survey.probe.spacing().is_some());
+        // One share a thread: the same survey on one thread as on three.
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let other = pool.install(|| Survey::of(&cloud.xyz));
+            assert_eq!(other.probe, survey.probe, "{threads} threads");
+            assert_eq!(other.heights, survey.heights, "{threads} threads");
+        }
         let params = Params::default().stories;
         assert_eq!(
             split_cloud_stories_within(&cloud.xyz, survey.heights, &params).unwrap(),
