@@ -622,25 +622,31 @@ impl BoxIndex {
         )
     }
 
+    /// The cell `p` falls in, and whether `p` lies inside the index at all, without a branch.
+    /// Saturating casts give any value a cell; `inside` says whether it is the point's.
+    #[inline]
+    fn cell(&self, p: P2) -> (bool, usize) {
+        let i = (p[0] - self.origin[0]) * self.inv;
+        let j = (p[1] - self.origin[1]) * self.inv;
+        let inside = (i >= 0.0) & (j >= 0.0) & (i < self.nx as f64) & (j < self.ny as f64);
+        let k = (j as usize).min(self.ny - 1) * self.nx + (i as usize).min(self.nx - 1);
+        (inside, k)
+    }
+
     /// Whether some box may hold `p`: what [`Self::near`] says by being non-empty, without a
     /// branch. A pass over a story's points asks this first, so its one branch is taken the
     /// same way for nearly every point, whatever order the points come in.
     #[inline]
     pub(crate) fn any_near(&self, p: P2) -> bool {
-        let i = (p[0] - self.origin[0]) * self.inv;
-        let j = (p[1] - self.origin[1]) * self.inv;
-        let inside = (i >= 0.0) & (j >= 0.0) & (i < self.nx as f64) & (j < self.ny as f64);
-        // Saturating casts: any value gives a cell, and `inside` says whether it is this one.
-        let k = (j as usize).min(self.ny - 1) * self.nx + (i as usize).min(self.nx - 1);
+        let (inside, k) = self.cell(p);
         inside & self.occupied[k]
     }
 
+    /// The boxes listed for `p`'s cell, in order; none outside the index.
     pub(crate) fn near(&self, p: P2) -> &[usize] {
-        let i = (p[0] - self.origin[0]) * self.inv;
-        let j = (p[1] - self.origin[1]) * self.inv;
-        if !(i >= 0.0 && j >= 0.0 && (i as usize) < self.nx && (j as usize) < self.ny) {
-            return &[];
+        match self.cell(p) {
+            (true, k) => &self.cells[k],
+            (false, _) => &[],
         }
-        &self.cells[j as usize * self.nx + i as usize]
     }
 }
