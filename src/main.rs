@@ -57,7 +57,7 @@ fn main() -> ExitCode {
     match result {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("asbuilt: {e:#}");
+            eprintln!("asbuilt: {}", cli::describe(&e));
             ExitCode::FAILURE
         }
     }
