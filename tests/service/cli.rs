@@ -98,6 +98,9 @@ fn missing_input_fails_in_one_line_naming_the_file() {
     ]);
     let line = assert_one_line_failure(&out);
     assert!(line.contains("no-such-scan.ply"), "{line}");
+    // The reason is said once, not again as the error's source.
+    let reason = std::fs::File::open(&input).unwrap_err().to_string();
+    assert_eq!(line.matches(&*reason).count(), 1, "{line}");
     assert!(!output.exists(), "a failed run must not leave an output");
     assert!(out.stdout.is_empty());
 
