@@ -17,7 +17,7 @@ use futures_util::future::BoxFuture;
 use sqlx::error::BoxDynError;
 use sqlx::migrate::{Migrate, Migration, MigrationSource, MigrationType, Migrator};
 use sqlx::postgres::{PgConnectOptions, PgListener, PgPool, PgPoolOptions, PgRow};
-use sqlx::Row;
+use sqlx::{ConnectOptions, Row};
 use tokio::sync::Notify;
 
 use super::sqlite::{is_unique_violation, json_text};
@@ -97,6 +97,25 @@ pub struct PgJobStore {
     wake: Arc<tokio::sync::OnceCell<Arc<Notify>>>,
 }
 
+/// How long the pool keeps trying to open a connection, at start and for each query.
+const CONNECT_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// Why no connection to the server of `options` could be opened within [`CONNECT_TIMEOUT`],
+/// from one last attempt.
+async fn unreachable_server(options: &PgConnectOptions) -> StoreError {
+    let why = match tokio::time::timeout(CONNECT_TIMEOUT, options.connect()).await {
+        Ok(Err(e)) => e.to_string(),
+        Ok(Ok(_)) => "it answered only after the timeout".to_string(),
+        Err(_) => "it did not answer".to_string(),
+    };
+    StoreError(format!(
+        "no connection to {}:{} within {} s: {why}",
+        options.get_host(),
+        options.get_port(),
+        CONNECT_TIMEOUT.as_secs()
+    ))
+}
+
 impl PgJobStore {
     /// Connects to `postgres://...`. A `?options=-c search_path=NAME` parameter selects a schema.
     pub async fn connect(url: &str) -> Result<PgJobStore, StoreError> {
@@ -109,9 +128,20 @@ impl PgJobStore {
     pub async fn connect_with(options: PgConnectOptions) -> Result<PgJobStore, StoreError> {
         let pool = PgPoolOptions::new()
             .max_connections(8)
-            .acquire_timeout(Duration::from_secs(10))
-            .connect_with(options)
-            .await?;
+            .acquire_timeout(CONNECT_TIMEOUT)
+            .connect_with(options.clone())
+            .await
+            .map_err(|e| match e {
+                sqlx::Error::PoolTimedOut => None,
+                e => Some(StoreError::from(e)),
+            });
+        let pool = match pool {
+            Ok(pool) => pool,
+            Err(Some(e)) => return Err(e),
+            // The pool retries a refused or failed connection until its timeout, then names
+            // only the timeout: one more attempt names the cause.
+            Err(None) => return Err(unreachable_server(&options).await),
+        };
         Ok(PgJobStore {
             pool,
             wake: Arc::new(tokio::sync::OnceCell::new()),

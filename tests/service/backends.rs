@@ -821,3 +821,21 @@ async fn ranged_reads_return_the_bytes_asked_for(b: &Backend) {
     assert!(b.blobs.get_part(&missing, 0..1).await.unwrap().is_none());
     assert_eq!(b.blobs.size(&missing).await.unwrap(), None);
 }
+
+/// A database that cannot be reached is named with the cause, not only the pool's timeout.
+#[tokio::test]
+async fn an_unreachable_database_is_named_with_its_cause() {
+    // A port nothing listens on: taken from the system, then let go.
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let url = format!("postgres://asbuilt@127.0.0.1:{port}/test");
+    let err = match PgJobStore::connect(&url).await {
+        Err(e) => e.to_string(),
+        Ok(_) => panic!("nothing listens on port {port}"),
+    };
+    assert!(err.contains(&format!("127.0.0.1:{port}")), "{err}");
+    assert!(err.to_lowercase().contains("refused"), "{err}");
+}
