@@ -12,11 +12,12 @@ use std::time::Duration;
 use async_trait::async_trait;
 use axum::http::Method;
 use bytes::Bytes;
-use object_store::aws::{AmazonS3, AmazonS3Builder};
+use object_store::aws::{AmazonS3, AmazonS3Builder, AmazonS3ConfigKey};
 use object_store::multipart::{MultipartStore, PartId};
 use object_store::path::Path as ObjectPath;
 use object_store::prefix::PrefixStore;
 use object_store::signer::Signer;
+use object_store::ClientConfigKey;
 
 use super::presign::{presign, SigningKey};
 use super::{Blob, BlobError, BlobStore, ByteStream, DirectUploads, ObjectBlobStore, Stored};
@@ -111,6 +112,7 @@ pub fn open(url: &str, options: &S3Options) -> Result<S3BlobStore, BlobError> {
     if options.allow_http {
         builder = builder.with_allow_http(true);
     }
+    refuse_plain_http(&builder)?;
     let s3 = Arc::new(builder.build()?);
     let inner: Arc<dyn object_store::ObjectStore> = if prefix.is_empty() {
         s3.clone()
@@ -269,9 +271,60 @@ impl DirectUploads for S3BlobStore {
     }
 }
 
+/// A plain-HTTP endpoint the client is not allowed to use fails every request with only
+/// "builder error": say so when the store is opened, with the setting that allows it.
+fn refuse_plain_http(builder: &AmazonS3Builder) -> Result<(), BlobError> {
+    let Some(endpoint) = builder.get_config_value(&AmazonS3ConfigKey::Endpoint) else {
+        return Ok(());
+    };
+    let allowed = builder
+        .get_config_value(&AmazonS3ConfigKey::Client(ClientConfigKey::AllowHttp))
+        .is_some_and(|v| v.eq_ignore_ascii_case("true"));
+    if endpoint.to_ascii_lowercase().starts_with("http://") && !allowed {
+        return Err(BlobError::Store(format!(
+            "the S3 endpoint {endpoint} is plain HTTP, which is refused unless allowed: set \
+             s3_allow_http = true in the configuration, or AWS_ALLOW_HTTP=true"
+        )));
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_plain_http_endpoint_is_refused_by_name_unless_allowed() {
+        let options = S3Options {
+            endpoint: Some("http://127.0.0.1:9".into()),
+            region: Some("us-east-1".into()),
+            ..Default::default()
+        };
+        // The environment may allow it for every client (`AWS_ALLOW_HTTP`); the check says
+        // the same as the client would.
+        let by_env = std::env::var("AWS_ALLOW_HTTP").is_ok_and(|v| v.eq_ignore_ascii_case("true"));
+        match open("s3://bucket/jobs", &options) {
+            Err(e) => {
+                assert!(!by_env, "{e}");
+                let e = e.to_string();
+                assert!(
+                    e.contains("http://127.0.0.1:9") && e.contains("s3_allow_http"),
+                    "{e}"
+                );
+            }
+            Ok(_) => assert!(by_env, "a plain-HTTP endpoint was accepted"),
+        }
+        let allowed = S3Options {
+            allow_http: true,
+            ..options.clone()
+        };
+        assert!(open("s3://bucket/jobs", &allowed).is_ok());
+        let https = S3Options {
+            endpoint: Some("https://s3.example.com".into()),
+            ..options
+        };
+        assert!(open("s3://bucket/jobs", &https).is_ok());
+    }
 
     #[test]
     fn urls_name_a_bucket_and_a_clean_prefix() {

@@ -30,6 +30,11 @@ const GROUP_PER_THREAD: usize = 4;
 /// large a damaged header says a chunk is.
 const MAX_PARALLEL_BATCH: u64 = 1 << 21;
 
+/// The largest fixed-size chunk, in bytes of records, decoded in parallel: the `laz` crate's
+/// parallel decoder allocates a whole chunk's records for the end of the last one. LASzip
+/// writes 50,000 points a chunk (1.8 MB at 36 bytes a point).
+const MAX_PARALLEL_CHUNK_BYTES: u64 = 64 << 20;
+
 /// LASzip's chunked compressors, whose chunks decode independently: point-wise, and layered
 /// (point formats 6 to 10).
 const POINTWISE_CHUNKED: u16 = 2;
@@ -643,11 +648,15 @@ fn check_header<R: Read + Seek>(
         let table = check_chunk_table(source, start, len, points, variable, fixed, name)?;
         // Only the chunked compressors (1 is point-wise, 2 and 3 chunked) decode in parallel.
         if let Some((POINTWISE_CHUNKED | LAYERED_CHUNKED, size, _)) = &laszip {
-            if table.is_some() {
-                laz_chunk = Some(match *size {
-                    0 | u32::MAX => 50_000,
-                    n => u64::from(n),
-                });
+            let chunk = match *size {
+                0 | u32::MAX => 50_000,
+                n => u64::from(n),
+            };
+            // The parallel decoder holds the rest of a fixed-size chunk, sized by the chunk
+            // size whatever the points in the file: a huge one is decoded serially.
+            let bytes = chunk.saturating_mul(u64::from(raw.point_data_record_length));
+            if table.is_some() && (variable || bytes <= MAX_PARALLEL_CHUNK_BYTES) {
+                laz_chunk = Some(chunk);
             }
         }
         match laszip {
@@ -1416,6 +1425,54 @@ mod tests {
                 "parallel {parallel}: {e}"
             );
         }
+    }
+
+    /// Where the chunk size of `laz`'s LASzip VLR lies in the file.
+    fn laszip_chunk_size_at(laz: &[u8]) -> usize {
+        let u16_at = |k: usize| u16::from_le_bytes([laz[k], laz[k + 1]]) as usize;
+        let vlrs = u32::from_le_bytes(laz[100..104].try_into().unwrap());
+        let mut at = u16_at(94);
+        for _ in 0..vlrs {
+            if laz[at + 2..at + 18].starts_with(b"laszip encoded") {
+                // Compressor, coder, version (4 bytes), options, then the chunk size.
+                return at + 54 + 12;
+            }
+            at += 54 + u16_at(at + 20);
+        }
+        panic!("no LASzip VLR")
+    }
+
+    #[test]
+    fn a_huge_fixed_chunk_size_is_decoded_serially_to_the_same_points() {
+        // Found by fuzzing: the `laz` crate's parallel decoder allocates the last chunk's
+        // records by the chunk size, 154 GB for a 10-point file whose header said 4.3 G points
+        // a chunk. Such a file holds one chunk, which the serial decoder reads as it is.
+        let c = cloud(1_000);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.laz");
+        crate::io::export::write_las(&path, &c, true).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let len = bytes.len() as u64;
+        let at = laszip_chunk_size_at(&bytes);
+        assert_eq!(&bytes[at..at + 4], &50_000u32.to_le_bytes());
+        let mut huge = bytes.clone();
+        huge[at..at + 4].copy_from_slice(&0xFF00_0000u32.to_le_bytes());
+        let plan = check_header(&mut Cursor::new(huge.clone()), len, "t.laz").unwrap();
+        assert_eq!(plan.laz_chunk, None, "decoded in parallel");
+        let read = |bytes: &[u8]| {
+            read_las_with(
+                Cursor::new(bytes.to_vec()),
+                len,
+                "t.laz",
+                &ReadOptions::default(),
+                true,
+                None,
+            )
+            .unwrap()
+        };
+        let (normal, huge) = (read(&bytes), read(&huge));
+        assert_eq!(normal.len(), 1_000);
+        assert_same(&normal, &huge);
     }
 
     #[test]
