@@ -130,17 +130,13 @@ impl PgJobStore {
             .max_connections(8)
             .acquire_timeout(CONNECT_TIMEOUT)
             .connect_with(options.clone())
-            .await
-            .map_err(|e| match e {
-                sqlx::Error::PoolTimedOut => None,
-                e => Some(StoreError::from(e)),
-            });
+            .await;
         let pool = match pool {
             Ok(pool) => pool,
-            Err(Some(e)) => return Err(e),
             // The pool retries a refused or failed connection until its timeout, then names
             // only the timeout: one more attempt names the cause.
-            Err(None) => return Err(unreachable_server(&options).await),
+            Err(sqlx::Error::PoolTimedOut) => return Err(unreachable_server(&options).await),
+            Err(e) => return Err(e.into()),
         };
         Ok(PgJobStore {
             pool,
