@@ -74,12 +74,64 @@ pub(crate) fn walk(
     b: P2,
     t0: f64,
     t_end: f64,
+    visit: impl FnMut(u32, f64, f64),
+) -> WalkEnd {
+    walk_steps::<true>(mesh, start, a, b, t0, t_end, visit)
+}
+
+/// [`walk`] from `a` (parameter 0) for a visitor that needs only the triangles: the same
+/// triangles, in the same order, with the same end.
+pub(crate) fn walk_from_start(
+    mesh: &Mesh,
+    start: u32,
+    a: P2,
+    b: P2,
+    t_end: f64,
+    mut visit: impl FnMut(u32),
+) -> WalkEnd {
+    // The exit test without the parameters holds for an end past the start, in normal range.
+    if !(t_end.is_normal() && t_end > 0.0) {
+        return walk(mesh, start, a, b, 0.0, t_end, |t, _, _| visit(t));
+    }
+    walk_steps::<false>(mesh, start, a, b, 0.0, t_end, |t, _, _| visit(t))
+}
+
+/// Just under 1, so that `t_end * SHORT * den`, rounded twice, stays below `t_end * den` by more
+/// than the division's rounding (see [`exits_short`]).
+const SHORT: f64 = 1.0 - 1.0 / (1u64 << 48) as f64;
+
+/// True when `num / den`, rounded, is surely below `t_end` (`short_end` is `t_end * SHORT`,
+/// `t_end` positive and normal); false when it may not be. Comparing with one product instead
+/// of dividing: the division's latency would hold up every step of a walk, and all but the
+/// last step end short. The product `short_end * den` is at most `t_end * den * SHORT * (1 +
+/// 2^-53)^2`; below it, `num / den` rounds to at most `t_end * SHORT * (1 + 2^-53)^3 < t_end`.
+/// A product that is not a positive normal number (den not positive, or far too small) decides
+/// nothing.
+#[inline]
+fn exits_short(num: f64, den: f64, short_end: f64) -> bool {
+    let bound = short_end * den;
+    bound >= f64::MIN_POSITIVE && num < bound
+}
+
+/// The walk. With `PARAMS`, every step divides to find where the line leaves the triangle,
+/// and `visit` gets the parameters; without, the parameters it gets are NaN, and a step
+/// divides only when [`exits_short`] cannot tell that the walk goes on (`t0` must then be 0
+/// and `t_end` positive and normal). Either way the same triangles are visited: a step's exit
+/// is compared with `t_end` on the same rounded quotient.
+fn walk_steps<const PARAMS: bool>(
+    mesh: &Mesh,
+    start: u32,
+    a: P2,
+    b: P2,
+    t0: f64,
+    t_end: f64,
     mut visit: impl FnMut(u32, f64, f64),
 ) -> WalkEnd {
     let d = geom::sub(b, a);
     if d == [0.0, 0.0] {
         return WalkEnd::Missed;
     }
+    let short_end = t_end * SHORT;
     let mut t = start;
     let mut t_in = t0;
     let mut tri = mesh.triangles[t as usize];
@@ -97,9 +149,19 @@ pub(crate) fn walk(
         let q = mesh.vertices[qv as usize];
         let pq = geom::sub(q, p);
         // p is strictly right of the line, so the edge is not parallel to it.
-        let t_out = (geom::cross(geom::sub(p, a), pq) / geom::cross(d, pq)).max(t_in);
-        visit(t, t_in, t_out);
-        if t_out >= t_end {
+        let (num, den) = (geom::cross(geom::sub(p, a), pq), geom::cross(d, pq));
+        let ended = if PARAMS {
+            let t_out = (num / den).max(t_in);
+            visit(t, t_in, t_out);
+            t_in = t_out;
+            t_out >= t_end
+        } else {
+            visit(t, f64::NAN, f64::NAN);
+            // `t_in` stays 0, below `t_end`: the exit is at or beyond `t_end` exactly when the
+            // quotient is.
+            !exits_short(num, den, short_end) && num / den >= t_end
+        };
+        if ended {
             return WalkEnd::Reached(t);
         }
         let next = mesh.neighbors[t as usize][NEXT[NEXT[i]]];
@@ -119,7 +181,6 @@ pub(crate) fn walk(
         });
         tri = ntri;
         t = next;
-        t_in = t_out;
     }
     WalkEnd::Missed
 }
@@ -152,7 +213,7 @@ pub(crate) fn locate(mesh: &Mesh, p: P2, hint: u32) -> Option<u32> {
         if c == p {
             return Some(start);
         }
-        match walk(mesh, start, c, p, 0.0, 1.0, |_, _, _| {}) {
+        match walk_from_start(mesh, start, c, p, 1.0, |_| {}) {
             WalkEnd::Reached(t) => return Some(t),
             WalkEnd::Hull(_) => return None,
             WalkEnd::Missed => continue,
@@ -173,12 +234,20 @@ pub(crate) fn segment_triangles(
     hi: f64,
     mut visit: impl FnMut(u32),
 ) -> bool {
-    let mut on = |t: u32, t_in: f64, t_out: f64| {
-        if t_out >= lo && t_in <= hi {
-            visit(t);
+    // From the start, every triangle up to the end is visited: no step needs its parameters.
+    let whole = lo <= 0.0 && hi.is_normal() && hi > 0.0;
+    let mut go = |from: u32| {
+        if whole {
+            walk_from_start(mesh, from, a, b, hi, &mut visit)
+        } else {
+            walk(mesh, from, a, b, 0.0, hi, |t, t_in, t_out| {
+                if t_out >= lo && t_in <= hi {
+                    visit(t);
+                }
+            })
         }
     };
-    match walk(mesh, start, a, b, 0.0, hi, &mut on) {
+    match go(start) {
         WalkEnd::Reached(_) | WalkEnd::Hull(_) => true,
         WalkEnd::Missed => {
             // `a` lies on an edge or vertex of `start`, and the (perturbed) line leaves it
@@ -189,7 +258,7 @@ pub(crate) fn segment_triangles(
                 .filter_map(|t| exit_param(mesh, t, a, b).map(|p| (t, p)))
                 .max_by(|x, y| x.1.total_cmp(&y.1));
             match best {
-                Some((t, _)) => !matches!(walk(mesh, t, a, b, 0.0, hi, on), WalkEnd::Missed),
+                Some((t, _)) => !matches!(go(t), WalkEnd::Missed),
                 None => false,
             }
         }
@@ -328,5 +397,95 @@ mod tests {
             .iter()
             .any(|&t| contains(&m, t, a) || contains(&m, t, b)));
         assert!(seen.iter().any(|&t| contains(&m, t, [2.0, 0.3])));
+    }
+
+    #[test]
+    fn a_short_exit_is_never_one_the_division_puts_at_the_end() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let ulps = |x: f64, k: i64| f64::from_bits((x.to_bits() as i64 + k) as u64);
+        let mut decided = 0;
+        for n in 0..200_000 {
+            let t_end: f64 = if n % 2 == 0 {
+                rng.random_range(0.3..1.0)
+            } else {
+                1.0
+            };
+            let den: f64 = rng.random_range(1e-9..1e3) * if n % 7 == 0 { -1.0 } else { 1.0 };
+            // Quotients at the end, a few ulps around it, and anywhere.
+            let num = match n % 3 {
+                0 => ulps(t_end * den, rng.random_range(-40..40)),
+                1 => t_end * den * (1.0 - rng.random_range(0.0..1e-13)),
+                _ => den * rng.random_range(-2.0..2.0),
+            };
+            if exits_short(num, den, t_end * SHORT) {
+                decided += 1;
+                assert!(num / den < t_end, "{num} / {den} against {t_end}");
+            }
+        }
+        assert!(decided > 50_000, "the product decided only {decided} cases");
+        // What is no positive normal product decides nothing.
+        for (num, den) in [
+            (1.0, 0.0),
+            (1.0, -1.0),
+            (f64::NAN, 1.0),
+            (1.0, f64::NAN),
+            (0.0, 1e-320),
+        ] {
+            assert!(!exits_short(num, den, SHORT), "{num} / {den}");
+        }
+        assert!(!exits_short(f64::INFINITY, 1.0, SHORT));
+    }
+
+    #[test]
+    fn a_walk_without_parameters_visits_what_the_walk_with_them_does() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let scattered: Vec<P2> = (0..300)
+            .map(|_| [rng.random_range(0.0..10.0), rng.random_range(0.0..10.0)])
+            .collect();
+        for m in [grid_mesh(), Mesh::build(&scattered, &[]).unwrap()] {
+            let span = if m.vertices.len() > 100 { 10.0 } else { 4.0 };
+            let mut ends = 0;
+            for n in 0..3_000 {
+                // Through vertices and along edges on the grid; anywhere among the scattered.
+                let at = |r: &mut rand_chacha::ChaCha8Rng| {
+                    if n % 2 == 0 {
+                        [
+                            r.random_range(0..=8) as f64 / 2.0,
+                            r.random_range(0..=8) as f64 / 2.0,
+                        ]
+                    } else {
+                        [r.random_range(0.0..span), r.random_range(0.0..span)]
+                    }
+                };
+                let (a, b) = (at(&mut rng), at(&mut rng));
+                let Some(start) = locate(&m, a, 0) else {
+                    continue;
+                };
+                let mut exact = Vec::new();
+                walk(&m, start, a, b, 0.0, 1.0, |t, _, t_out| {
+                    exact.push((t, t_out))
+                });
+                // Ends anywhere, and exactly at each exit and an ulp either side of it.
+                let mut t_ends = vec![rng.random_range(0.01..1.5), 1.0];
+                if let Some(&(_, t_out)) = exact.get(rng.random_range(0..exact.len().max(1))) {
+                    if t_out.is_normal() && t_out > 0.0 {
+                        let up = f64::from_bits(t_out.to_bits() + 1);
+                        let down = f64::from_bits(t_out.to_bits() - 1);
+                        t_ends.extend([t_out, up, down]);
+                        ends += 1;
+                    }
+                }
+                for t_end in t_ends {
+                    let mut with = Vec::new();
+                    let e1 = walk(&m, start, a, b, 0.0, t_end, |t, _, _| with.push(t));
+                    let mut without = Vec::new();
+                    let e2 = walk_from_start(&m, start, a, b, t_end, |t| without.push(t));
+                    assert_eq!((e1, &with), (e2, &without), "{a:?} -> {b:?} to {t_end}");
+                }
+            }
+            assert!(ends > 1_000, "only {ends} walks ended at an exit");
+        }
     }
 }
