@@ -88,7 +88,7 @@ pub fn open_chunks(path: &Path, options: &ReadOptions) -> Result<Box<dyn PointCh
     let opts = options.clone();
     let open = move || -> Result<Box<dyn PointChunks>, ReadError> {
         Ok(match format {
-            Format::Ply => Box::new(super::ply::PlyChunks::open(&owned)?),
+            Format::Ply => Box::new(super::ply::PlyChunks::open(&owned, opts.keep_time)?),
             // The LAZ decoder reads a byte at a time: buffer it.
             _ => Box::new(super::las::LasChunks::open(
                 std::io::BufReader::with_capacity(1 << 16, file),

@@ -227,14 +227,14 @@ pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<PointCloud,
     };
     let file = Checked::new(file, options);
     let read = match (format, map) {
-        (Format::Ply, Some(map)) => ply::read_ply_mapped(file, &map, &name),
+        (Format::Ply, Some(map)) => ply::read_ply_mapped(file, &map, &name, options.keep_time),
         (Format::Ply, None) => {
             let len = file
                 .inner
                 .metadata()
                 .map_err(|e| ReadError::io(&name, e))?
                 .len();
-            ply::read_ply_from(file, len, &name)
+            ply::read_ply_from(file, len, &name, options.keep_time)
         }
         (_, map) => read_stream(file, &name, format, options, map),
     };
@@ -480,7 +480,7 @@ where
                     format,
                     &opts,
                 ),
-                Format::Ply => ply::read_ply_from(source, len, name),
+                Format::Ply => ply::read_ply_from(source, len, name, opts.keep_time),
             }
         })
         .map_err(|e| ReadError::io(name, e))?;

@@ -33,13 +33,14 @@ pub struct PlyChunks {
 }
 
 impl PlyChunks {
-    /// Reads the header and skips the elements before `vertex`.
-    pub fn open(path: &Path) -> Result<PlyChunks, ReadError> {
+    /// Reads the header and skips the elements before `vertex`; points' times are read only
+    /// with `keep_time`.
+    pub fn open(path: &Path, keep_time: bool) -> Result<PlyChunks, ReadError> {
         let file = File::open(path).map_err(|e| io_error(path, e))?;
         let file_len = file.metadata().map_err(|e| io_error(path, e))?.len();
         let mut reader = BufReader::with_capacity(1 << 20, file);
         let header = read_header(&mut reader, path)?;
-        let (vertex_pos, vertex, layout) = vertices(&header, file_len, path)?;
+        let (vertex_pos, vertex, layout) = vertices(&header, file_len, path, keep_time)?;
         let vertex = vertex.clone();
         let (offset, line) = {
             let mut body = Body {

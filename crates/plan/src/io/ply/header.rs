@@ -368,12 +368,14 @@ pub(super) fn read_header(reader: &mut impl BufRead, path: &Path) -> Result<Head
     })
 }
 
-/// The `vertex` element, its index among the header's elements and its layout, once the
-/// counts are known to fit in a file of `file_len` bytes.
+/// The `vertex` element, its index among the header's elements and its layout (with the time
+/// only when `keep_time` asks for it), once the counts are known to fit in a file of
+/// `file_len` bytes.
 pub(super) fn vertices<'h>(
     header: &'h Header,
     file_len: u64,
     path: &Path,
+    keep_time: bool,
 ) -> Result<(usize, &'h Element, Layout), ReadError> {
     let (vertex_pos, vertex) = header
         .elements
@@ -381,13 +383,14 @@ pub(super) fn vertices<'h>(
         .enumerate()
         .find(|(_, e)| e.name == "vertex")
         .ok_or_else(|| invalid(path, "the header declares no `vertex` element", None))?;
-    let layout = layout(vertex, path)?;
+    let layout = layout(vertex, path, keep_time)?;
     check_counts(header, vertex_pos, file_len, path)?;
     Ok((vertex_pos, vertex, layout))
 }
 
-/// Finds x, y, z and the optional scan and time properties of the vertex element.
-pub(super) fn layout(vertex: &Element, path: &Path) -> Result<Layout, ReadError> {
+/// Finds x, y, z and the optional scan and time properties of the vertex element. Without
+/// `keep_time` a time property is left unread, as any other property the cloud does not hold.
+pub(super) fn layout(vertex: &Element, path: &Path, keep_time: bool) -> Result<Layout, ReadError> {
     let find = |name: &str| {
         vertex
             .properties
@@ -407,7 +410,7 @@ pub(super) fn layout(vertex: &Element, path: &Path) -> Result<Layout, ReadError>
     Ok(Layout {
         xyz,
         scan: super::SCAN_NAMES.iter().find_map(|n| find(n)),
-        time: find("time"),
+        time: find("time").filter(|_| keep_time),
     })
 }
 

@@ -42,11 +42,11 @@ pub(super) const SCAN_NAMES: [&str; 3] = ["scan_index", "scan", "point_source_id
 
 const FORMAT: &str = "ply";
 
-/// Reads a PLY file.
+/// Reads a PLY file, with its points' times when it has them.
 pub fn read_ply(path: &Path) -> Result<PointCloud, ReadError> {
     let file = File::open(path).map_err(|e| io_error(path, e))?;
     let file_len = file.metadata().map_err(|e| io_error(path, e))?.len();
-    read_ply_from(file, file_len, &path.display().to_string())
+    read_ply_from(file, file_len, &path.display().to_string(), true)
 }
 
 /// The vertex count the header declares, or `None` when the header does not parse.
@@ -60,13 +60,15 @@ pub(crate) fn declared_vertices(mut reader: impl BufRead) -> Option<u64> {
 }
 
 /// Reads PLY from any source of `len` bytes (a file, an upload in memory); `name` is used in
-/// errors. The source is read once, front to back, through a buffer.
+/// errors. The source is read once, front to back, through a buffer. A `time` property is
+/// read only with `keep_time` (8 bytes a point).
 pub fn read_ply_from<R: Read + Send>(
     source: R,
     len: u64,
     name: &str,
+    keep_time: bool,
 ) -> Result<PointCloud, ReadError> {
-    read_ply_split(source, len, name, Split::parallel(), None)
+    read_ply_split(source, len, name, Split::parallel(), None, keep_time)
 }
 
 /// [`read_ply_from`] of a file also mapped as `map`: fixed-size binary vertices are decoded
@@ -75,8 +77,16 @@ pub(crate) fn read_ply_mapped<R: Read + Send>(
     source: R,
     map: &Mapped,
     name: &str,
+    keep_time: bool,
 ) -> Result<PointCloud, ReadError> {
-    read_ply_split(source, map.len(), name, Split::parallel(), Some(map))
+    read_ply_split(
+        source,
+        map.len(),
+        name,
+        Split::parallel(),
+        Some(map),
+        keep_time,
+    )
 }
 
 /// How binary vertices are read: `block` records at a time, each block decoded in `parts`;
@@ -113,12 +123,13 @@ fn read_ply_split<R: Read + Send>(
     name: &str,
     split: Split,
     map: Option<&Mapped>,
+    keep_time: bool,
 ) -> Result<PointCloud, ReadError> {
     let path = Path::new(name);
     let file_len = len;
     let mut reader = BufReader::with_capacity(1 << 20, source);
     let header = read_header(&mut reader, path)?;
-    let (vertex_pos, vertex, layout) = vertices(&header, file_len, path)?;
+    let (vertex_pos, vertex, layout) = vertices(&header, file_len, path, keep_time)?;
 
     let mut sink = Sink::new(vertex.count, layout);
     let mut body = Body {
@@ -1342,14 +1353,14 @@ mod tests {
     ) -> Result<PointCloud, ReadError> {
         let source = std::io::Cursor::new(bytes.to_vec());
         if !mapped {
-            return read_ply_split(source, len, "t.ply", split, None);
+            return read_ply_split(source, len, "t.ply", split, None, true);
         }
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("t.ply");
         std::fs::write(&path, bytes).unwrap();
         let file = File::open(&path).unwrap();
         let map = Mapped::new(&file, &Default::default()).expect("a file maps");
-        read_ply_split(source, len, "t.ply", split, Some(&map))
+        read_ply_split(source, len, "t.ply", split, Some(&map), true)
     }
 
     fn same(a: &PointCloud, b: &PointCloud) {
@@ -1402,6 +1413,53 @@ mod tests {
                 assert!(stream.to_string().contains("truncated"), "{stream}");
                 let mapped = read_claiming(cut, len, split, true).unwrap_err();
                 assert_eq!(stream.to_string(), mapped.to_string());
+            }
+        }
+    }
+
+    /// Times cost 8 bytes a point: a read that is not asked for them (a scan with static poses)
+    /// leaves them out, on every path (mapped, streamed, chunked, binary and ASCII), and
+    /// otherwise reads the same points.
+    #[test]
+    fn times_are_read_only_when_asked_for() {
+        use crate::io::chunks::{open_chunks, PointChunk};
+        use crate::io::{read_cloud_from, read_cloud_with, ReadOptions};
+        let c = cloud(5_003, true);
+        for encoding in [Encoding::BinaryLittleEndian, Encoding::Ascii] {
+            let mut bytes = Vec::new();
+            write_ply_to(&mut bytes, &c, encoding).unwrap();
+            let dir = tempfile::tempdir().unwrap();
+            let path = dir.path().join("t.ply");
+            std::fs::write(&path, &bytes).unwrap();
+            for keep_time in [true, false] {
+                let options = ReadOptions {
+                    keep_time,
+                    ..Default::default()
+                };
+                let mapped = read_cloud_with(&path, &options).unwrap();
+                let streamed =
+                    read_cloud_from(std::io::Cursor::new(bytes.clone()), "t.ply", &options)
+                        .unwrap();
+                let mut chunks = open_chunks(&path, &options).unwrap();
+                let (mut chunk, mut xyz, mut time) = (PointChunk::default(), vec![], vec![]);
+                while chunks.next_chunk(&mut chunk).unwrap() {
+                    xyz.extend_from_slice(&chunk.xyz);
+                    time.extend_from_slice(&chunk.time);
+                }
+                let kept: Vec<f64> = (0..5_003)
+                    .filter(|&i| c.xyz[i][0].is_finite())
+                    .map(|i| c.time[i])
+                    .collect();
+                assert_eq!(kept.len(), 5_003 - 8);
+                for (read, got) in [("mapped", &mapped), ("streamed", &streamed)] {
+                    assert_eq!(got.len(), kept.len(), "{encoding:?} {read}");
+                    let want = if keep_time { &kept[..] } else { &[] };
+                    assert_eq!(got.time, want, "{encoding:?} {read} keep_time {keep_time}");
+                }
+                let want = if keep_time { &kept[..] } else { &[] };
+                assert_eq!(time, want, "{encoding:?} chunked keep_time {keep_time}");
+                assert!(xyz == mapped.xyz && streamed.xyz == mapped.xyz);
+                assert_eq!(streamed.scan, mapped.scan);
             }
         }
     }
